@@ -1,0 +1,191 @@
+//! Piecewise-linear curves: the LNL force laws and the envelope signal.
+
+/// A piecewise-linear function given by points `(abscissa, value)`.
+///
+/// Rules (FORMALISM.md): abscissas are non-decreasing; the function is linear between points;
+/// two points with the same abscissa make a jump, and at the jump's abscissa the later point's
+/// value holds; before the first point and after the last the value stays at the end point's
+/// value. An empty curve is zero everywhere.
+///
+/// Evaluation, which every part of cordis must reproduce bit for bit: with `i` the last point whose
+/// abscissa is `<= x`, the value is `y[0]` if there is none, `y[last]` if `i` is the last point,
+/// and otherwise `y[i] + (x - x[i]) * ((y[i+1] - y[i]) / (x[i+1] - x[i]))`.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct Curve {
+    xs: Vec<f64>,
+    ys: Vec<f64>,
+}
+
+/// Why a list of points is not a curve.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CurveError {
+    /// A coordinate is NaN or infinite; `index` is the point's position in the list.
+    NonFinite {
+        /// Position of the offending point.
+        index: usize,
+    },
+    /// The abscissa of point `index` is smaller than the one before it.
+    Decreasing {
+        /// Position of the offending point.
+        index: usize,
+    },
+}
+
+impl std::fmt::Display for CurveError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CurveError::NonFinite { index } => write!(f, "point {} is not finite", index + 1),
+            CurveError::Decreasing { index } => write!(
+                f,
+                "point {} has a smaller abscissa than the point before it (abscissas must not decrease)",
+                index + 1
+            ),
+        }
+    }
+}
+
+impl std::error::Error for CurveError {}
+
+impl Curve {
+    /// The zero curve.
+    pub fn zero() -> Curve {
+        Curve::default()
+    }
+
+    /// A curve through `points`, checked: finite coordinates, non-decreasing abscissas.
+    pub fn new(points: &[(f64, f64)]) -> Result<Curve, CurveError> {
+        for (index, &(x, y)) in points.iter().enumerate() {
+            if !x.is_finite() || !y.is_finite() {
+                return Err(CurveError::NonFinite { index });
+            }
+            if index > 0 && x < points[index - 1].0 {
+                return Err(CurveError::Decreasing { index });
+            }
+        }
+        Ok(Curve {
+            xs: points.iter().map(|p| p.0).collect(),
+            ys: points.iter().map(|p| p.1).collect(),
+        })
+    }
+
+    /// The points, in order.
+    pub fn points(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
+        self.xs.iter().copied().zip(self.ys.iter().copied())
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.xs.len()
+    }
+
+    /// True for the zero curve (no points).
+    pub fn is_empty(&self) -> bool {
+        self.xs.is_empty()
+    }
+
+    /// The curve's value at `x` (see the type's documentation for the exact arithmetic).
+    #[inline]
+    pub fn eval(&self, x: f64) -> f64 {
+        let n = self.xs.len();
+        if n == 0 {
+            return 0.0;
+        }
+        // Number of points whose abscissa is <= x; the last of them is `i = count - 1`.
+        let count = self.xs.partition_point(|&a| a <= x);
+        if count == 0 {
+            return self.ys[0];
+        }
+        let i = count - 1;
+        if i == n - 1 {
+            return self.ys[i];
+        }
+        let (x0, x1, y0, y1) = (self.xs[i], self.xs[i + 1], self.ys[i], self.ys[i + 1]);
+        y0 + (x - x0) * ((y1 - y0) / (x1 - x0))
+    }
+
+    /// The slope of the segment that contains `x` (0 outside the points and at a jump's abscissa
+    /// only when the segment after it is flat). Used by analysis to linearise an LNL.
+    pub fn slope(&self, x: f64) -> f64 {
+        let n = self.xs.len();
+        let count = self.xs.partition_point(|&a| a <= x);
+        if count == 0 || count >= n {
+            return 0.0;
+        }
+        let i = count - 1;
+        (self.ys[i + 1] - self.ys[i]) / (self.xs[i + 1] - self.xs[i])
+    }
+
+    /// The largest absolute slope over all finite segments (a worst-case stiffness).
+    pub fn max_abs_slope(&self) -> f64 {
+        let mut best = 0.0f64;
+        for i in 1..self.xs.len() {
+            let dx = self.xs[i] - self.xs[i - 1];
+            if dx > 0.0 {
+                best = best.max(((self.ys[i] - self.ys[i - 1]) / dx).abs());
+            }
+        }
+        best
+    }
+
+    /// The integral of the curve from 0 to `x` (potential energy of an LNL spring curve).
+    pub fn integral_from_zero(&self, x: f64) -> f64 {
+        // Integrate piecewise; evaluate on the breakpoints between 0 and x.
+        let (lo, hi, sign) = if x >= 0.0 { (0.0, x, 1.0) } else { (x, 0.0, -1.0) };
+        let mut cuts: Vec<f64> = vec![lo];
+        cuts.extend(self.xs.iter().copied().filter(|&a| a > lo && a < hi));
+        cuts.push(hi);
+        let mut sum = 0.0;
+        for w in cuts.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            if b > a {
+                // linear on (a, b): use values just inside the segment
+                let mid = 0.5 * (a + b);
+                let s = self.slope(mid);
+                let ym = self.eval(mid);
+                let ya = ym - s * (mid - a);
+                let yb = ym + s * (b - mid);
+                sum += 0.5 * (ya + yb) * (b - a);
+            }
+        }
+        sign * sum
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn jumps_take_the_later_value_and_ends_hold() {
+        let s = 0.5;
+        let k = 0.1;
+        let c = Curve::new(&[(-s, 0.0), (-s, -k * s), (s, k * s), (s, 0.0)]).unwrap();
+        assert_eq!(c.eval(-1.0), 0.0);
+        assert_eq!(c.eval(-s), -k * s); // at the jump the later point holds
+        assert_eq!(c.eval(0.0), 0.0);
+        assert!((c.eval(0.25) - k * 0.25).abs() < 1e-17);
+        assert_eq!(c.eval(s), 0.0);
+        assert_eq!(c.eval(10.0), 0.0);
+    }
+
+    #[test]
+    fn rejects_decreasing_and_non_finite() {
+        assert_eq!(
+            Curve::new(&[(0.0, 0.0), (-1.0, 1.0)]),
+            Err(CurveError::Decreasing { index: 1 })
+        );
+        assert_eq!(
+            Curve::new(&[(f64::NAN, 0.0)]),
+            Err(CurveError::NonFinite { index: 0 })
+        );
+        assert_eq!(Curve::zero().eval(3.0), 0.0);
+    }
+
+    #[test]
+    fn integral_of_a_linear_spring_is_its_potential() {
+        let c = Curve::new(&[(-1.0, -2.0), (1.0, 2.0)]).unwrap(); // 2 d
+        for &d in &[-0.7, 0.0, 0.3, 0.9] {
+            assert!((c.integral_from_zero(d) - d * d).abs() < 1e-15);
+        }
+    }
+}

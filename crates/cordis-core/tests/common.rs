@@ -1,0 +1,216 @@
+//! Shared test helpers: a plain reference stepper and seeded network builders.
+#![allow(dead_code)]
+
+use cordis_core::{Curve, Interaction, Material, Network, Output, Signal};
+
+/// Linear-scan curve evaluation, written independently of `Curve::eval`.
+pub fn curve_ref(points: &[(f64, f64)], x: f64) -> f64 {
+    if points.is_empty() {
+        return 0.0;
+    }
+    let mut last: Option<usize> = None;
+    for (i, p) in points.iter().enumerate() {
+        if p.0 <= x {
+            last = Some(i);
+        }
+    }
+    match last {
+        None => points[0].1,
+        Some(i) if i == points.len() - 1 => points[i].1,
+        Some(i) => {
+            let (x0, y0) = points[i];
+            let (x1, y1) = points[i + 1];
+            y0 + (x - x0) * ((y1 - y0) / (x1 - x0))
+        }
+    }
+}
+
+/// The plain reference stepper: FORMALISM.md read literally, one module at a time in declaration
+/// order. Returns the output frames (interleaved) for `steps` steps.
+pub fn reference(net: &Network, steps: usize) -> Vec<f64> {
+    let nm = net.materials.len();
+    let mut x = vec![0.0; nm];
+    let mut xp = vec![0.0; nm];
+    for (i, m) in net.materials.iter().enumerate() {
+        match m {
+            Material::Mas { x0, v0, .. } | Material::Cel { x0, v0, .. } => {
+                x[i] = *x0;
+                xp[i] = *x0 - *v0;
+            }
+            Material::Sol { x0 } => {
+                x[i] = *x0;
+                xp[i] = *x0;
+            }
+            Material::Enx { signal } => {
+                x[i] = signal.at(0);
+                xp[i] = signal.at(0);
+            }
+        }
+    }
+    let lk_points: Vec<(Vec<(f64, f64)>, Vec<(f64, f64)>)> = net
+        .links
+        .iter()
+        .map(|l| match &l.law {
+            Interaction::Lnl { lk, lz } => (lk.points().collect(), lz.points().collect()),
+            _ => (vec![], vec![]),
+        })
+        .collect();
+    let mut out = Vec::with_capacity(steps * net.outputs.len());
+    for n in 0..steps as u64 {
+        let mut force = vec![0.0; nm];
+        let mut lf = vec![0.0; net.links.len()];
+        for (l, link) in net.links.iter().enumerate() {
+            let (a, b) = (link.a.index(), link.b.index());
+            let d = x[a] - x[b];
+            let v = (x[a] - xp[a]) - (x[b] - xp[b]);
+            let f = match &link.law {
+                Interaction::Res { k } => k * d,
+                Interaction::Fro { z } => z * v,
+                Interaction::Ref { k, z } => k * d + z * v,
+                Interaction::But { k, z, s } => {
+                    if x[b] - x[a] < *s {
+                        k * (d + s) + z * v
+                    } else {
+                        0.0
+                    }
+                }
+                Interaction::Lnl { .. } => curve_ref(&lk_points[l].0, d) + curve_ref(&lk_points[l].1, v),
+            };
+            force[a] -= f;
+            force[b] += f;
+            lf[l] = f;
+        }
+        for fi in &net.forces {
+            force[fi.target.index()] += fi.signal.at(n);
+        }
+        for o in &net.outputs {
+            out.push(match o {
+                Output::Position(m) => x[m.index()],
+                Output::Force(l) => lf[l.index()],
+            });
+        }
+        for (i, m) in net.materials.iter().enumerate() {
+            let next = match m {
+                Material::Mas { m, .. } => 2.0 * x[i] - xp[i] + force[i] / m,
+                Material::Sol { .. } => x[i],
+                Material::Cel { m, k, z, r, .. } => {
+                    r + (2.0 - (k + z) / m) * (x[i] - r) + (z / m - 1.0) * (xp[i] - r) + force[i] / m
+                }
+                Material::Enx { signal } => signal.at(n + 1),
+            };
+            xp[i] = x[i];
+            x[i] = next;
+        }
+    }
+    out
+}
+
+/// A small deterministic generator (64-bit LCG) so tests need no RNG crate.
+pub struct Lcg(pub u64);
+
+impl Lcg {
+    pub fn next_f64(&mut self) -> f64 {
+        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next_f64() * n as f64) as usize % n
+    }
+}
+
+/// A network that uses every module type: MAS, SOL, CEL, ENX; RES, FRO, REF, BUT, LNL; ENF; SOX, SOF.
+pub fn every_module_network() -> Network {
+    let mut net = Network::new();
+    let g = net.add_material(Material::Sol { x0: 0.0 });
+    let m1 = net.add_material(Material::Mas { m: 1.0, x0: 0.0, v0: 0.0 });
+    let m2 = net.add_material(Material::Mas { m: 1.5, x0: 0.2, v0: 0.01 });
+    let c = net.add_material(Material::Cel { m: 1.0, k: 0.01, z: 1e-5, x0: 1.0, v0: 0.0, r: 0.0 });
+    let hand = net.add_material(Material::Enx { signal: Signal::Sine { freq: 2.0 / 44100.0, amp: 0.3, phase: 0.0 } });
+    let m3 = net.add_material(Material::Mas { m: 0.7, x0: -0.1, v0: 0.0 });
+    let r = net.add_link(Interaction::Ref { k: 0.1, z: 1e-4 }, g, m1);
+    net.add_link(Interaction::Res { k: 0.1 }, m1, m2);
+    net.add_link(Interaction::Fro { z: 0.001 }, m1, m2);
+    net.add_link(Interaction::But { k: 0.05, z: 0.001, s: 0.1 }, m1, m3);
+    let lk = Curve::new(&[(-1.0, 0.0), (-1.0, -0.05), (1.0, 0.05), (1.0, 0.0)]).unwrap();
+    let lz = Curve::new(&[(-1.0, -0.01), (1.0, 0.01)]).unwrap();
+    let l = net.add_link(Interaction::Lnl { lk, lz }, m2, c);
+    net.add_link(Interaction::Ref { k: 0.02, z: 1e-3 }, hand, m3);
+    net.add_link(Interaction::Res { k: 0.01 }, c, m3);
+    net.add_force(m1, Signal::Impulse { at: 0, amp: 1.0 });
+    net.add_force(m2, Signal::Step { at: 100, amp: -1e-4 });
+    net.add_force(m3, Signal::Noise { seed: 3, amp: 1e-3 });
+    net.add_position_output(m1);
+    net.add_position_output(m3);
+    net.add_position_output(c);
+    net.add_position_output(hand);
+    net.add_force_output(r);
+    net.add_force_output(l);
+    net
+}
+
+/// A seeded random network of `n` masses with about `links_per_mass` links each, mixing every law.
+pub fn random_network(seed: u64, n: usize, links_per_mass: usize) -> Network {
+    let mut rng = Lcg(seed);
+    let mut net = Network::new();
+    let mut ids = Vec::new();
+    for i in 0..n {
+        let m = 0.5 + rng.next_f64();
+        let x0 = 0.1 * (rng.next_f64() - 0.5);
+        ids.push(if i % 7 == 3 {
+            net.add_material(Material::Cel { m, k: 0.01, z: 1e-4, x0, v0: 0.0, r: 0.0 })
+        } else if i % 11 == 5 {
+            net.add_material(Material::Sol { x0 })
+        } else {
+            net.add_material(Material::Mas { m, x0, v0: 0.01 * (rng.next_f64() - 0.5) })
+        });
+    }
+    for _ in 0..n * links_per_mass / 2 {
+        let a = ids[rng.below(n)];
+        let mut b = ids[rng.below(n)];
+        if a == b {
+            b = ids[(a.index() + 1) % n];
+        }
+        // small stiffnesses keep the worst-case eigenvalue well below 4
+        let k = 0.02 * rng.next_f64() / links_per_mass as f64;
+        let z = 1e-4 * rng.next_f64();
+        let law = match rng.below(5) {
+            0 => Interaction::Res { k },
+            1 => Interaction::Fro { z },
+            2 => Interaction::Ref { k, z },
+            3 => Interaction::But { k, z, s: 0.01 * (rng.next_f64() - 0.5) },
+            _ => Interaction::Lnl {
+                lk: Curve::new(&[(-0.05, -k * 0.05), (0.0, 0.0), (0.05, 2.0 * k * 0.05)]).unwrap(),
+                lz: Curve::new(&[(-1.0, -z), (1.0, z)]).unwrap(),
+            },
+        };
+        let l = net.add_link(law, a, b);
+        if l.0 % 13 == 0 {
+            net.add_force_output(l);
+        }
+    }
+    for i in (0..n).step_by(5) {
+        net.add_position_output(ids[i]);
+    }
+    net.add_force(ids[0], Signal::Impulse { at: 0, amp: 0.5 });
+    net
+}
+
+/// Renders with the engine in blocks of `block` frames.
+pub fn render(net: &Network, steps: usize, block: usize) -> Vec<f64> {
+    let mut e = cordis_core::Engine::new(net);
+    let ch = e.channels();
+    let mut out = vec![0.0; steps * ch];
+    let mut done = 0;
+    while done < steps {
+        let frames = block.min(steps - done);
+        e.process(frames, &mut out[done * ch..(done + frames) * ch]).expect("stable network");
+        done += frames;
+    }
+    out
+}
+
+/// First index where two renders differ in their bits, if any.
+pub fn first_bit_difference(a: &[f64], b: &[f64]) -> Option<usize> {
+    assert_eq!(a.len(), b.len());
+    a.iter().zip(b).position(|(x, y)| x.to_bits() != y.to_bits())
+}

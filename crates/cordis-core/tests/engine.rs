@@ -1,0 +1,145 @@
+//! The engine against the plain reference stepper, and its determinism guarantees.
+
+mod common;
+
+use common::*;
+use cordis_core::{Engine, Interaction, Material, Network, Signal};
+
+#[test]
+fn engine_equals_reference_bit_for_bit_on_every_module_type() {
+    let net = every_module_network();
+    let steps = 20_000;
+    let expected = reference(&net, steps);
+    let got = render(&net, steps, 256);
+    assert_eq!(first_bit_difference(&got, &expected), None);
+    // the run is not trivial: every channel moves
+    for c in 0..net.outputs.len() {
+        let moved = (0..steps).any(|n| got[n * net.outputs.len() + c] != got[c]);
+        assert!(moved, "channel {c} never changed");
+    }
+}
+
+#[test]
+fn engine_equals_reference_on_seeded_random_networks() {
+    for seed in 1..=8 {
+        let net = random_network(seed, 60, 4);
+        let expected = reference(&net, 3000);
+        let got = render(&net, 3000, 97);
+        assert_eq!(first_bit_difference(&got, &expected), None, "seed {seed}");
+    }
+}
+
+#[test]
+fn output_is_independent_of_block_size_and_deterministic() {
+    let net = every_module_network();
+    let a = render(&net, 5000, 1);
+    for block in [2, 7, 64, 1000, 5000] {
+        assert_eq!(first_bit_difference(&render(&net, 5000, block), &a), None, "block {block}");
+    }
+    assert_eq!(first_bit_difference(&render(&net, 5000, 64), &render(&net, 5000, 64)), None);
+}
+
+#[test]
+fn reset_reproduces_the_run() {
+    let net = random_network(42, 40, 3);
+    let mut e = Engine::new(&net);
+    let ch = e.channels();
+    let mut a = vec![0.0; 1000 * ch];
+    let mut b = vec![0.0; 1000 * ch];
+    e.process(1000, &mut a).unwrap();
+    e.reset();
+    e.process(1000, &mut b).unwrap();
+    assert_eq!(first_bit_difference(&a, &b), None);
+}
+
+#[test]
+fn sample_zero_is_x0_and_enx_starts_at_rest() {
+    let mut net = Network::new();
+    let m = net.add_material(Material::Mas { m: 2.0, x0: 0.25, v0: 0.5 });
+    let e = net.add_material(Material::Enx { signal: Signal::Step { at: 0, amp: 3.0 } });
+    net.add_position_output(m);
+    net.add_position_output(e);
+    let out = render(&net, 3, 3);
+    // x(0) = X0, x(1) = 2 x(0) - x(-1) = X0 + V0, x(2) = X0 + 2 V0
+    assert_eq!(out, [0.25, 3.0, 0.75, 3.0, 1.25, 3.0]);
+}
+
+#[test]
+fn but_orientation_and_threshold() {
+    // End 2 below end 1 + S: active; the force pushes end 2 up (+f) and end 1 down (-f).
+    let mut net = Network::new();
+    let a = net.add_material(Material::Sol { x0: 0.0 });
+    let b = net.add_material(Material::Mas { m: 1.0, x0: 0.05, v0: 0.0 });
+    let l = net.add_link(Interaction::But { k: 0.1, z: 0.0, s: 0.1 }, a, b);
+    net.add_force_output(l);
+    net.add_position_output(b);
+    let out = render(&net, 2, 1);
+    // d = -0.05, f = K (d + S) = 0.1 * 0.05 = 0.005; end 2 moves by +f/M
+    assert!((out[0] - 0.005).abs() < 1e-18);
+    assert!((out[3] - (0.05 + 0.005)).abs() < 1e-17);
+    // Above the threshold there is no force.
+    let mut net = Network::new();
+    let a = net.add_material(Material::Sol { x0: 0.0 });
+    let b = net.add_material(Material::Mas { m: 1.0, x0: 0.2, v0: 0.0 });
+    let l = net.add_link(Interaction::But { k: 0.1, z: 0.5, s: 0.1 }, a, b);
+    net.add_force_output(l);
+    assert_eq!(render(&net, 1, 1), [0.0]);
+}
+
+#[test]
+fn a_blow_up_names_the_first_module_and_step() {
+    // K/M = 5 > 4: the explicit scheme diverges.
+    let mut net = Network::new();
+    let g = net.add_material(Material::Sol { x0: 0.0 });
+    let quiet = net.add_material(Material::Mas { m: 1.0, x0: 0.0, v0: 0.0 });
+    let m = net.add_material(Material::Mas { m: 1.0, x0: 1.0, v0: 0.0 });
+    net.add_link(Interaction::Res { k: 5.0 }, g, m);
+    net.add_position_output(m);
+    net.add_position_output(quiet);
+    // independently: the first step where the reference stepper's output is not finite
+    let steps = 2000;
+    let refout = reference(&net, steps);
+    let first_bad = refout.chunks(2).position(|f| !f[0].is_finite()).expect("diverges") as u64;
+    for block in [1, 64, 4096] {
+        let mut e = Engine::new(&net);
+        let mut out = vec![0.0; block * 2];
+        let mut err = None;
+        for _ in 0..(steps / block + 2) {
+            if let Err(b) = e.process(block, &mut out) {
+                err = Some(b);
+                break;
+            }
+        }
+        let b = err.expect("the engine must report the blow-up");
+        assert_eq!(b.step, first_bad, "block {block}");
+        assert_eq!(b.material.index(), 2);
+        // and refuses to go on
+        assert!(e.process(1, &mut [0.0, 0.0]).is_err());
+    }
+}
+
+#[test]
+fn link_force_and_positions_are_observable() {
+    let net = every_module_network();
+    let mut e = Engine::new(&net);
+    let mut out = vec![0.0; 10 * e.channels()];
+    e.process(10, &mut out).unwrap();
+    assert_eq!(e.step_index(), 10);
+    let sof = out[9 * e.channels() + 4];
+    assert_eq!(e.link_force(cordis_core::LinkId(0)).to_bits(), sof.to_bits());
+    assert!(e.position(cordis_core::MatId(0)) == 0.0);
+}
+
+#[test]
+fn curves_agree_with_the_linear_scan() {
+    let pts = [(-1.0, 0.5), (-0.5, -0.5), (-0.5, 0.2), (0.3, 0.9), (2.0, -1.0)];
+    let c = cordis_core::Curve::new(&pts).unwrap();
+    let mut rng = Lcg(9);
+    for _ in 0..10_000 {
+        let x = 6.0 * rng.next_f64() - 3.0;
+        assert_eq!(c.eval(x).to_bits(), curve_ref(&pts, x).to_bits(), "x = {x}");
+    }
+    for &(x, _) in &pts {
+        assert_eq!(c.eval(x).to_bits(), curve_ref(&pts, x).to_bits());
+    }
+}
