@@ -1,1 +1,151 @@
-fn main() {}
+//! `cordis`: check and render CORDIS-ANIMA models written in the cordis language.
+//!
+//! The only crate that knows about terminals, files and exit codes. Libraries return typed errors;
+//! they are rendered here.
+
+mod output;
+mod render;
+mod report;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Args, Parser, Subcommand};
+use cordis_model::{Limits, Options};
+
+/// Exit codes, documented in the README and `cordis --help`.
+pub mod exit {
+    /// Success.
+    pub const OK: u8 = 0;
+    /// The model or an input file is invalid (errors printed with file, line and column).
+    pub const INVALID: u8 = 1;
+    /// The command line is wrong (unknown flag, missing argument).
+    pub const USAGE: u8 = 2;
+    /// The simulation blew up (render), or the model is unstable (check).
+    pub const UNSTABLE: u8 = 3;
+    /// The output could not be written, or would clip.
+    pub const OUTPUT: u8 = 4;
+}
+
+const EXIT_CODES: &str = "\
+Exit codes:
+  0  success
+  1  the model or an input file is invalid
+  2  the command line is wrong
+  3  the simulation blew up (render) or the model is unstable (check)
+  4  the output could not be written, or would clip";
+
+#[derive(Parser)]
+#[command(name = "cordis", version, about = "CORDIS-ANIMA physical models: check them, render them to sound and data",
+    after_help = EXIT_CODES, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a model's outputs (every sox and sof, in order) to .wav, .csv or .f64.
+    #[command(after_help = "Examples:
+  cordis render examples/plucked_string.cordis -o string.wav --normalize
+  cordis render model.cordis -o data.csv --duration 100ms --set k=0.2
+  cordis render model.cordis -o raw.f64 --rate 48000
+
+The format follows the extension: .wav (see --sample-format), .csv (header of channel names,
+one row per sample, 17 significant digits), .f64 (raw little-endian float64, frames
+interleaved over channels).
+
+Exit codes: 0 ok, 1 invalid model, 2 bad command line, 3 blew up, 4 output failed or would clip.")]
+    Render(RenderArgs),
+    /// Parse and validate a model; print its size, rate, duration and stability verdict.
+    #[command(after_help = "Examples:
+  cordis check examples/plucked_string.cordis
+  cordis check model.cordis --set k=0.5 --rate 96000
+
+Exit codes: 0 valid and stable, 1 invalid, 2 bad command line, 3 valid but unstable.")]
+    Check(ModelArgs),
+}
+
+#[derive(Args)]
+struct ModelArgs {
+    /// The model file (*.cordis).
+    model: PathBuf,
+    /// Sample rate, overriding the model's `rate` (e.g. 48000 or 48kHz).
+    #[arg(long, value_name = "R")]
+    rate: Option<String>,
+    /// Render length, overriding the model's `duration` (e.g. 3s, 250ms, or samples).
+    #[arg(long, value_name = "D")]
+    duration: Option<String>,
+    /// Override a `let` value of the model (repeatable), e.g. --set k=0.2 --set f=440Hz.
+    #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
+    sets: Vec<(String, String)>,
+    /// Most modules a model may have.
+    #[arg(long, value_name = "N", default_value_t = Limits::default().max_modules)]
+    max_modules: usize,
+    /// Longest render, in seconds.
+    #[arg(long, value_name = "SECONDS", default_value_t = Limits::default().max_duration_s)]
+    max_duration: f64,
+    /// Highest sample rate, in Hz.
+    #[arg(long, value_name = "HZ", default_value_t = Limits::default().max_rate)]
+    max_rate: f64,
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// Output file: .wav, .csv or .f64 (default: the model's name with .wav).
+    #[arg(short, long, value_name = "OUT")]
+    output: Option<PathBuf>,
+    /// WAV sample format.
+    #[arg(long, value_enum, default_value_t = output::SampleFormat::F32)]
+    sample_format: output::SampleFormat,
+    /// Scale the WAV so that its peak is exactly full scale (1.0).
+    #[arg(long)]
+    normalize: bool,
+    /// Write an integer WAV even if samples exceed full scale (they are clipped, with a warning).
+    #[arg(long)]
+    allow_clipping: bool,
+    /// Frames per engine block (output does not depend on it).
+    #[arg(long, default_value_t = 4096, value_parser = clap::value_parser!(u32).range(1..=1_048_576))]
+    block: u32,
+}
+
+fn parse_set(s: &str) -> Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((n, v)) if !n.trim().is_empty() && !v.trim().is_empty() => Ok((n.trim().to_string(), v.trim().to_string())),
+        _ => Err(format!("`{s}` is not NAME=VALUE (for example k=0.2 or f=440Hz)")),
+    }
+}
+
+impl ModelArgs {
+    fn options(&self) -> Options {
+        Options {
+            rate: self.rate.clone(),
+            duration: self.duration.clone(),
+            sets: self.sets.clone(),
+            limits: Limits {
+                max_modules: self.max_modules,
+                max_duration_s: self.max_duration,
+                max_rate: self.max_rate,
+                ..Limits::default()
+            },
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let code = if e.use_stderr() { exit::USAGE } else { exit::OK };
+            let _ = e.print();
+            return ExitCode::from(code);
+        }
+    };
+    let code = match cli.command {
+        Command::Render(a) => render::render(&a),
+        Command::Check(a) => render::check(&a),
+    };
+    ExitCode::from(code)
+}

@@ -1,0 +1,541 @@
+//! Engine throughput: mass-steps per second of `Engine::process` on the benchmark models, next to
+//! an in-process baseline, a plain Rust port of the generic C kernel `cref.c` (schedule "ideal").
+//!
+//! ```text
+//! cargo bench -p cordis-core --bench engine                      # every model
+//! cargo bench -p cordis-core --bench engine -- string 1000       # a selection
+//! cargo bench -p cordis-core --bench engine -- membrane 32x32 random
+//! CORDIS_BENCH_WORK=2e6 cargo bench -p cordis-core --bench engine   # a quick run
+//! ```
+//!
+//! Models (every parameter as in the C baselines: M = 1, REF K = 0.1, Z = 0.0001, V0 = 1):
+//! - `string N`: N masses between two SOL grounds, N+1 links, strike on mass N/4, SOX on N/2;
+//! - `but N`, `lnl N`: the same string with every link a BUT (threshold so large that it is always
+//!   in contact) or an LNL (3-point curves, linear with slopes K and Z): the nonlinear-module cost;
+//! - `membrane R C` (or `membrane RxC`): 4-neighbour REF links, one ground per missing neighbour of a
+//!   border mass, strike at (2,2), SOX at the centre;
+//! - `random N`: N masses, each the end 1 of 2 REF links to masses drawn by a seeded LCG (4 links
+//!   per mass on average), one ground tied to mass 0, strike on N/4, SOX on N/2.
+//!
+//! A kind without a size selects its default models. Work per timed run: `CORDIS_BENCH_WORK`
+//! mass-steps (default 2e8, as `baselines.sh`), i.e. `steps = work / masses` (at least 1000). Each
+//! model is timed 5 times, cordis and the baseline back to back, and the medians are printed.
+//! cordis runs in blocks of 1024 frames into one reused output buffer.
+
+use std::hint::black_box;
+use std::time::Instant;
+
+use cordis_core::{Curve, Engine, Interaction, MatId, Material, Network};
+
+const M: f64 = 1.0;
+const K: f64 = 0.1;
+const Z: f64 = 0.0001;
+const V0: f64 = 1.0;
+/// BUT threshold: far beyond any elongation of these models, so the links are always active.
+const BUT_S: f64 = 1.0e3;
+/// Half-width of the LNL curves: far beyond any elongation or velocity of these models.
+const LNL_L: f64 = 1.0e3;
+const BLOCK: usize = 1024;
+const RUNS: usize = 5;
+const DEFAULT_WORK: u64 = 200_000_000;
+const MIN_STEPS: u64 = 1000;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Law {
+    Ref,
+    But,
+    Lnl,
+}
+
+impl Law {
+    fn interaction(self) -> Interaction {
+        match self {
+            Law::Ref => Interaction::Ref { k: K, z: Z },
+            Law::But => Interaction::But {
+                k: K,
+                z: Z,
+                s: BUT_S,
+            },
+            Law::Lnl => {
+                let curve = |slope: f64| {
+                    Curve::new(&[(-LNL_L, -slope * LNL_L), (0.0, 0.0), (LNL_L, slope * LNL_L)])
+                        .expect("a valid curve")
+                };
+                Interaction::Lnl {
+                    lk: curve(K),
+                    lz: curve(Z),
+                }
+            }
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum Spec {
+    String(usize, Law),
+    Membrane(usize, usize),
+    Random(usize),
+}
+
+const DEFAULT_MODELS: [Spec; 6] = [
+    Spec::String(1000, Law::Ref),
+    Spec::String(10000, Law::Ref),
+    Spec::Membrane(100, 100),
+    Spec::Random(10000),
+    Spec::String(1000, Law::But),
+    Spec::String(1000, Law::Lnl),
+];
+
+struct Model {
+    name: String,
+    net: Network,
+    /// Mobile masses: the unit of work (grounds are not counted, as in `baselines.sh`).
+    masses: usize,
+    /// The SOX mass.
+    out: MatId,
+}
+
+fn mass(net: &mut Network, v0: f64) -> MatId {
+    net.add_material(Material::Mas { m: M, x0: 0.0, v0 })
+}
+
+fn ground(net: &mut Network) -> MatId {
+    net.add_material(Material::Sol { x0: 0.0 })
+}
+
+/// As `gen_models.py build_string`: ground, N masses, ground, chained by N+1 links.
+fn string(n: usize, law: Law) -> Model {
+    let mut net = Network::new();
+    let g0 = ground(&mut net);
+    let masses: Vec<MatId> = (0..n)
+        .map(|i| mass(&mut net, if i == n / 4 { V0 } else { 0.0 }))
+        .collect();
+    let g1 = ground(&mut net);
+    let chain: Vec<MatId> = std::iter::once(g0)
+        .chain(masses.iter().copied())
+        .chain(std::iter::once(g1))
+        .collect();
+    for w in chain.windows(2) {
+        net.add_link(law.interaction(), w[0], w[1]);
+    }
+    let out = masses[n / 2];
+    net.add_position_output(out);
+    let name = match law {
+        Law::Ref => format!("string_N{n}"),
+        Law::But => format!("string_but_N{n}"),
+        Law::Lnl => format!("string_lnl_N{n}"),
+    };
+    Model {
+        name,
+        net,
+        masses: n,
+        out,
+    }
+}
+
+/// As `gen_models.py build_membrane` (one ground per missing neighbour, horizontal links row by row
+/// then vertical links column by column), struck at (2,2) and observed at the centre as in
+/// `baselines.sh`.
+fn membrane(rows: usize, cols: usize) -> Model {
+    let mut net = Network::new();
+    let mut idx = Vec::with_capacity(rows * cols);
+    for r in 0..rows {
+        for c in 0..cols {
+            idx.push(mass(&mut net, if (r, c) == (2, 2) { V0 } else { 0.0 }));
+        }
+    }
+    let at = |r: usize, c: usize| idx[r * cols + c];
+    let law = Law::Ref.interaction();
+    for r in 0..rows {
+        let g = ground(&mut net);
+        net.add_link(law.clone(), g, at(r, 0));
+        for c in 0..cols - 1 {
+            net.add_link(law.clone(), at(r, c), at(r, c + 1));
+        }
+        let g = ground(&mut net);
+        net.add_link(law.clone(), at(r, cols - 1), g);
+    }
+    for c in 0..cols {
+        let g = ground(&mut net);
+        net.add_link(law.clone(), g, at(0, c));
+        for r in 0..rows - 1 {
+            net.add_link(law.clone(), at(r, c), at(r + 1, c));
+        }
+        let g = ground(&mut net);
+        net.add_link(law.clone(), at(rows - 1, c), g);
+    }
+    let out = at(rows / 2, cols / 2);
+    net.add_position_output(out);
+    Model {
+        name: format!("membrane_{rows}x{cols}"),
+        net,
+        masses: rows * cols,
+        out,
+    }
+}
+
+/// 64-bit LCG (Knuth's MMIX constants); the high bits are the random ones.
+struct Lcg(u64);
+
+impl Lcg {
+    fn below(&mut self, n: usize) -> usize {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((self.0 >> 33) % n as u64) as usize
+    }
+}
+
+/// N masses; mass i is end 1 of two REF links to other masses drawn at random (so 4 links per mass
+/// on average, scattered over the whole state); one ground tied to mass 0.
+fn random(n: usize) -> Model {
+    let mut net = Network::new();
+    let masses: Vec<MatId> = (0..n)
+        .map(|i| mass(&mut net, if i == n / 4 { V0 } else { 0.0 }))
+        .collect();
+    let g = ground(&mut net);
+    net.add_link(Law::Ref.interaction(), g, masses[0]);
+    let mut rng = Lcg(0x00c0_4d15_2026_1122);
+    for (i, &a) in masses.iter().enumerate() {
+        for _ in 0..2 {
+            let j = (i + 1 + rng.below(n - 1)) % n; // any mass but i
+            net.add_link(Law::Ref.interaction(), a, masses[j]);
+        }
+    }
+    let out = masses[n / 2];
+    net.add_position_output(out);
+    Model {
+        name: format!("random_N{n}"),
+        net,
+        masses: n,
+        out,
+    }
+}
+
+fn build(spec: &Spec) -> Model {
+    match *spec {
+        Spec::String(n, law) => string(n, law),
+        Spec::Membrane(r, c) => membrane(r, c),
+        Spec::Random(n) => random(n),
+    }
+}
+
+/// Plain Rust port of the generic C kernel `cref.c`, schedule "ideal": structure-of-arrays state
+/// with the mobile masses first and the grounds after them; per step, one loop over the list of
+/// spring-dampers computing each force and scattering it onto both ends (then one over the
+/// collisions, i.e. BUT), then one loop over the masses. The output is recorded before the mass
+/// update, as cordis does (sample s is x(s)), so that both produce the same samples.
+struct Generic {
+    nm: usize,
+    x: Vec<f64>,
+    xp: Vec<f64>,
+    f: Vec<f64>,
+    x0: Vec<f64>,
+    x1: Vec<f64>,
+    c_inv_m: Vec<f64>,
+    grav: Vec<f64>,
+    li: Vec<u32>,
+    lj: Vec<u32>,
+    lk: Vec<f64>,
+    lz: Vec<f64>,
+    ci: Vec<u32>,
+    cj: Vec<u32>,
+    ck: Vec<f64>,
+    cz: Vec<f64>,
+    ct: Vec<f64>,
+    out: usize,
+}
+
+impl Generic {
+    /// REF links become spring-dampers and BUT links collisions, as in `cref.c`. LNL links (which
+    /// `cref.c` does not have) become spring-dampers with the slopes of their curves at 0: the
+    /// linear kernel the nonlinear one is compared with.
+    fn new(net: &Network, out: MatId) -> Generic {
+        let n = net.materials.len();
+        let mut map = vec![0u32; n];
+        let mut next = 0u32;
+        let mut c_inv_m = Vec::new();
+        for (i, m) in net.materials.iter().enumerate() {
+            if let Material::Mas { m, .. } = m {
+                map[i] = next;
+                next += 1;
+                c_inv_m.push(1.0 / m);
+            }
+        }
+        let nm = next as usize;
+        for (i, m) in net.materials.iter().enumerate() {
+            match m {
+                Material::Mas { .. } => {}
+                Material::Sol { .. } => {
+                    map[i] = next;
+                    next += 1;
+                }
+                other => panic!("the generic baseline has no {}", other.kind()),
+            }
+        }
+        let mut x0 = vec![0.0; n];
+        let mut x1 = vec![0.0; n];
+        for (i, m) in net.materials.iter().enumerate() {
+            let (a, b) = m.initial_state();
+            x0[map[i] as usize] = a;
+            x1[map[i] as usize] = b;
+        }
+        let mut g = Generic {
+            nm,
+            x: vec![0.0; n],
+            xp: vec![0.0; n],
+            f: vec![0.0; n],
+            x0,
+            x1,
+            c_inv_m,
+            grav: vec![0.0; nm],
+            li: Vec::new(),
+            lj: Vec::new(),
+            lk: Vec::new(),
+            lz: Vec::new(),
+            ci: Vec::new(),
+            cj: Vec::new(),
+            ck: Vec::new(),
+            cz: Vec::new(),
+            ct: Vec::new(),
+            out: map[out.index()] as usize,
+        };
+        for link in &net.links {
+            let (i, j) = (map[link.a.index()], map[link.b.index()]);
+            let (k, z) = match &link.law {
+                Interaction::Ref { k, z } => (*k, *z),
+                Interaction::Lnl { lk, lz } => (lk.slope(0.0), lz.slope(0.0)),
+                Interaction::But { k, z, s } => {
+                    g.ci.push(i);
+                    g.cj.push(j);
+                    g.ck.push(*k);
+                    g.cz.push(*z);
+                    g.ct.push(*s);
+                    continue;
+                }
+                other => panic!("the generic baseline has no {}", other.kind()),
+            };
+            g.li.push(i);
+            g.lj.push(j);
+            g.lk.push(k);
+            g.lz.push(z);
+        }
+        g
+    }
+
+    fn reset(&mut self) {
+        self.x.copy_from_slice(&self.x0);
+        self.xp.copy_from_slice(&self.x1);
+        self.f.fill(0.0);
+    }
+
+    #[inline]
+    fn links(&mut self) {
+        let (x, xp, f) = (&self.x, &self.xp, &mut self.f);
+        for l in 0..self.li.len() {
+            let (i, j) = (self.li[l] as usize, self.lj[l] as usize);
+            let fl = self.lk[l] * (x[i] - x[j]) + self.lz[l] * ((x[i] - xp[i]) - (x[j] - xp[j]));
+            f[i] -= fl;
+            f[j] += fl;
+        }
+        for c in 0..self.ci.len() {
+            let (i, j) = (self.ci[c] as usize, self.cj[c] as usize);
+            let t = self.ct[c];
+            if x[j] - x[i] < t {
+                let fl = self.ck[c] * ((x[i] + t) - x[j])
+                    + self.cz[c] * (((x[i] + t) - (xp[i] + t)) - (x[j] - xp[j]));
+                f[i] -= fl;
+                f[j] += fl;
+            }
+        }
+    }
+
+    #[inline]
+    fn masses(&mut self) {
+        let nm = self.nm;
+        for i in 0..nm {
+            let xn = 2.0 * self.x[i] - self.xp[i] + (self.f[i] - self.grav[i]) * self.c_inv_m[i];
+            self.xp[i] = self.x[i];
+            self.x[i] = xn;
+            self.f[i] = 0.0;
+        }
+        self.f[nm..].fill(0.0); // grounds: forces discarded
+    }
+
+    /// Runs `steps` steps from the initial state; returns the sum of the output samples.
+    fn run(&mut self, steps: u64) -> f64 {
+        self.reset();
+        let mut acc = 0.0;
+        for _ in 0..steps {
+            self.links();
+            acc += self.x[self.out];
+            self.masses();
+        }
+        acc
+    }
+}
+
+/// Runs `steps` steps of `engine` from its initial state, in blocks of [`BLOCK`] frames into `buf`;
+/// returns the sum of the output samples.
+fn run_cordis(engine: &mut Engine, steps: u64, buf: &mut [f64]) -> f64 {
+    engine.reset();
+    let ch = engine.channels();
+    let mut acc = 0.0;
+    let mut left = steps;
+    while left > 0 {
+        let frames = left.min(BLOCK as u64) as usize;
+        let out = &mut buf[..frames * ch];
+        engine
+            .process(frames, out)
+            .expect("the benchmark models are stable");
+        for &v in out.iter() {
+            acc += v; // sample by sample, in the order the baseline sums
+        }
+        left -= frames as u64;
+    }
+    acc
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn work() -> u64 {
+    match std::env::var("CORDIS_BENCH_WORK") {
+        Ok(s) => match s.trim().parse::<f64>() {
+            Ok(w) if w >= 1.0 => w as u64,
+            _ => panic!(
+                "CORDIS_BENCH_WORK must be a number of mass-steps >= 1 (e.g. 2e6), not {s:?}"
+            ),
+        },
+        Err(_) => DEFAULT_WORK,
+    }
+}
+
+fn usage() -> ! {
+    eprintln!(
+        "usage: cargo bench -p cordis-core --bench engine -- [string [N]] [but [N]] [lnl [N]] \
+         [membrane [R C | RxC]] [random [N]]...\n(no model: every default model)"
+    );
+    std::process::exit(2)
+}
+
+/// Model selection from the command line. Flags (cargo passes `--bench`) are ignored.
+fn parse_args() -> Vec<Spec> {
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
+    let num = |s: &str| s.parse::<usize>().ok().filter(|&n| n > 0);
+    let mut specs = Vec::new();
+    let mut i = 0;
+    while i < args.len() {
+        let kind = args[i].as_str();
+        i += 1;
+        let law = match kind {
+            "string" => Some(Law::Ref),
+            "but" => Some(Law::But),
+            "lnl" => Some(Law::Lnl),
+            "membrane" | "random" => None,
+            _ => usage(),
+        };
+        let first = args.get(i).map(String::as_str);
+        let explicit = match (kind, first) {
+            ("membrane", Some(a)) => {
+                if let Some((r, c)) = a
+                    .split_once('x')
+                    .and_then(|(r, c)| Some((num(r)?, num(c)?)))
+                {
+                    i += 1;
+                    Some(Spec::Membrane(r, c))
+                } else if let (Some(r), Some(c)) = (num(a), args.get(i + 1).and_then(|c| num(c))) {
+                    i += 2;
+                    Some(Spec::Membrane(r, c))
+                } else {
+                    None
+                }
+            }
+            (_, Some(a)) => num(a).map(|n| {
+                i += 1;
+                match law {
+                    Some(law) => Spec::String(n, law),
+                    None => Spec::Random(n),
+                }
+            }),
+            (_, None) => None,
+        };
+        match explicit {
+            Some(Spec::String(n, _) | Spec::Random(n)) if n < 2 => usage(),
+            Some(Spec::Membrane(r, c)) if r < 3 || c < 3 => usage(), // the strike is at (2,2)
+            Some(spec) => specs.push(spec),
+            None => specs.extend(
+                DEFAULT_MODELS
+                    .iter()
+                    .filter(|s| match (s, kind) {
+                        (Spec::String(_, l), _) => Some(*l) == law,
+                        (Spec::Membrane(..), k) => k == "membrane",
+                        (Spec::Random(_), k) => k == "random",
+                    })
+                    .cloned(),
+            ),
+        }
+    }
+    if specs.is_empty() {
+        specs.extend(DEFAULT_MODELS.iter().cloned());
+    }
+    specs
+}
+
+fn main() {
+    let specs = parse_args();
+    let work = work();
+    println!(
+        "cordis engine vs in-process generic baseline (Rust port of cref.c, ideal schedule); \
+         {work:.3e} mass-steps per run, median of {RUNS} runs",
+        work = work as f64
+    );
+    println!(
+        "{:<18} {:>8} {:>9} {:>12}   {:>9} {:>12}   {:>6}  check",
+        "model", "steps", "cordis s", "mass-steps/s", "generic s", "mass-steps/s", "ratio"
+    );
+    for spec in &specs {
+        let model = build(spec);
+        let steps = (work / model.masses as u64).max(MIN_STEPS);
+        let mass_steps = (model.masses as u64 * steps) as f64;
+        let mut engine = Engine::new(&model.net);
+        let mut buf = vec![0.0; BLOCK * engine.channels()];
+        let mut generic = Generic::new(&model.net, model.out);
+        let (mut tc, mut tg) = (Vec::new(), Vec::new());
+        let (mut sc, mut sg) = (0.0, 0.0);
+        for _ in 0..RUNS {
+            let t = Instant::now();
+            sc = black_box(run_cordis(&mut engine, black_box(steps), &mut buf));
+            tc.push(t.elapsed().as_secs_f64());
+            let t = Instant::now();
+            sg = black_box(generic.run(black_box(steps)));
+            tg.push(t.elapsed().as_secs_f64());
+        }
+        let (tc, tg) = (median(tc), median(tg));
+        // Both sum the same SOX samples: bit-identical for REF, rounding-close for BUT and LNL.
+        let check = if sc == sg {
+            "identical".to_string()
+        } else {
+            format!(
+                "rel diff {:.1e}",
+                ((sc - sg) / sg.abs().max(f64::MIN_POSITIVE)).abs()
+            )
+        };
+        println!(
+            "{:<18} {:>8} {:>9.4} {:>12.3e}   {:>9.4} {:>12.3e}   {:>6.2}  {check}",
+            model.name,
+            steps,
+            tc,
+            mass_steps / tc,
+            tg,
+            mass_steps / tg,
+            tg / tc
+        );
+    }
+}
