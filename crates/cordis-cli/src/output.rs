@@ -32,7 +32,12 @@ pub enum SampleFormat {
 impl Format {
     /// The format for a path, from its extension.
     pub fn from_path(p: &Path) -> Result<Format> {
-        match p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        match p
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
             Some("wav") => Ok(Format::Wav),
             Some("csv") => Ok(Format::Csv),
             Some("f64") | Some("raw") => Ok(Format::F64),
@@ -54,9 +59,16 @@ pub struct Pending {
 impl Pending {
     /// A temporary path beside `dest`.
     pub fn new(dest: &Path) -> Pending {
-        let name = dest.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let name = dest
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
         let tmp = dest.with_file_name(format!(".{name}.partial-{}", std::process::id()));
-        Pending { tmp, dest: dest.to_path_buf(), done: false }
+        Pending {
+            tmp,
+            dest: dest.to_path_buf(),
+            done: false,
+        }
     }
 
     /// Where to write.
@@ -82,19 +94,27 @@ impl Drop for Pending {
 }
 
 /// Writes interleaved frames as WAV.
-pub fn write_wav(path: &Path, data: &[f64], channels: usize, rate: u32, fmt: SampleFormat) -> Result<()> {
+pub fn write_wav(
+    path: &Path,
+    data: &[f64],
+    channels: usize,
+    rate: u32,
+    fmt: SampleFormat,
+) -> Result<()> {
     let (bits, sample_format) = match fmt {
         SampleFormat::I16 => (16, hound::SampleFormat::Int),
         SampleFormat::I24 => (24, hound::SampleFormat::Int),
         SampleFormat::F32 => (32, hound::SampleFormat::Float),
     };
     let spec = hound::WavSpec {
-        channels: u16::try_from(channels).context("too many channels for a WAV file (at most 65535)")?,
+        channels: u16::try_from(channels)
+            .context("too many channels for a WAV file (at most 65535)")?,
         sample_rate: rate,
         bits_per_sample: bits,
         sample_format,
     };
-    let mut w = hound::WavWriter::create(path, spec).with_context(|| format!("cannot create {}", path.display()))?;
+    let mut w = hound::WavWriter::create(path, spec)
+        .with_context(|| format!("cannot create {}", path.display()))?;
     match fmt {
         SampleFormat::F32 => {
             for &v in data {
@@ -118,7 +138,9 @@ pub fn write_wav(path: &Path, data: &[f64], channels: usize, rate: u32, fmt: Sam
 
 /// Writes interleaved frames as CSV with a header of channel names.
 pub fn write_csv(path: &Path, data: &[f64], names: &[String]) -> Result<()> {
-    let mut w = BufWriter::new(File::create(path).with_context(|| format!("cannot create {}", path.display()))?);
+    let mut w = BufWriter::new(
+        File::create(path).with_context(|| format!("cannot create {}", path.display()))?,
+    );
     writeln!(w, "{}", names.join(","))?;
     for frame in data.chunks(names.len().max(1)) {
         let mut first = true;
@@ -137,7 +159,9 @@ pub fn write_csv(path: &Path, data: &[f64], names: &[String]) -> Result<()> {
 
 /// Writes interleaved frames as raw little-endian float64.
 pub fn write_f64(path: &Path, data: &[f64]) -> Result<()> {
-    let mut w = BufWriter::new(File::create(path).with_context(|| format!("cannot create {}", path.display()))?);
+    let mut w = BufWriter::new(
+        File::create(path).with_context(|| format!("cannot create {}", path.display()))?,
+    );
     for v in data {
         w.write_all(&v.to_le_bytes())?;
     }

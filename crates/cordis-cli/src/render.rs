@@ -33,7 +33,11 @@ pub fn check(args: &ModelArgs) -> u8 {
     let count = |f: &dyn Fn(&Material) -> bool| net.materials.iter().filter(|m| f(m)).count();
     println!("{}: valid", model.path.display());
     println!("  rate          {} Hz", model.rate);
-    println!("  duration      {:.6} s ({} samples)", model.duration as f64 / model.rate, model.duration);
+    println!(
+        "  duration      {:.6} s ({} samples)",
+        model.duration as f64 / model.rate,
+        model.duration
+    );
     println!(
         "  materials     {}: {} mas, {} cel, {} sol, {} enx",
         net.materials.len(),
@@ -45,22 +49,44 @@ pub fn check(args: &ModelArgs) -> u8 {
     let kinds = ["RES", "FRO", "REF", "BUT", "LNL"];
     let by_kind: Vec<String> = kinds
         .iter()
-        .map(|k| format!("{} {}", net.links.iter().filter(|l| l.law.kind() == *k).count(), k.to_ascii_lowercase()))
+        .map(|k| {
+            format!(
+                "{} {}",
+                net.links.iter().filter(|l| l.law.kind() == *k).count(),
+                k.to_ascii_lowercase()
+            )
+        })
         .collect();
-    println!("  interactions  {}: {}", net.links.len(), by_kind.join(", "));
+    println!(
+        "  interactions  {}: {}",
+        net.links.len(),
+        by_kind.join(", ")
+    );
     println!("  inputs        {} enf", net.forces.len());
     let outs: Vec<String> = model
         .outputs
         .iter()
         .zip(&net.outputs)
         .map(|(n, o)| match o {
-            cordis_core::Output::Position(m) => format!("{} (sox {})", n.name, model.material_name(*m)),
-            cordis_core::Output::Force(l) => format!("{} (sof {})", n.name, model.links[l.index()].name),
+            cordis_core::Output::Position(m) => {
+                format!("{} (sox {})", n.name, model.material_name(*m))
+            }
+            cordis_core::Output::Force(l) => {
+                format!("{} (sof {})", n.name, model.links[l.index()].name)
+            }
         })
         .collect();
-    println!("  outputs       {}{}{}", outs.len(), if outs.is_empty() { "" } else { ": " }, outs.join(", "));
+    println!(
+        "  outputs       {}{}{}",
+        outs.len(),
+        if outs.is_empty() { "" } else { ": " },
+        outs.join(", ")
+    );
     let s = stability::check(&model);
-    println!("stability: {}", if s.stable { "stable" } else { "UNSTABLE" });
+    println!(
+        "stability: {}",
+        if s.stable { "stable" } else { "UNSTABLE" }
+    );
     for c in &s.cels {
         println!(
             "  cel {}: Z/M = {:.6e} (must be in [0, 2)), (K+2Z)/M = {:.6e} (must be < 4): {}",
@@ -79,7 +105,11 @@ pub fn check(args: &ModelArgs) -> u8 {
         );
     }
     if !s.offenders.is_empty() {
-        let list: Vec<String> = s.offenders.iter().map(|(n, r)| format!("{n} (row sum {r:.3})")).collect();
+        let list: Vec<String> = s
+            .offenders
+            .iter()
+            .map(|(n, r)| format!("{n} (row sum {r:.3})"))
+            .collect();
         println!("  at fault: {}", list.join(", "));
         println!("  hint: lower the stiffness of the links at these modules, make them heavier, or raise the rate");
     }
@@ -92,7 +122,10 @@ pub fn check(args: &ModelArgs) -> u8 {
 
 /// `cordis render`.
 pub fn render(args: &RenderArgs) -> u8 {
-    let out_path = args.output.clone().unwrap_or_else(|| args.model.model.with_extension("wav"));
+    let out_path = args
+        .output
+        .clone()
+        .unwrap_or_else(|| args.model.model.with_extension("wav"));
     let format = match Format::from_path(&out_path) {
         Ok(f) => f,
         Err(e) => {
@@ -106,12 +139,20 @@ pub fn render(args: &RenderArgs) -> u8 {
     };
     let channels = model.network.outputs.len();
     if channels == 0 {
-        eprintln!("cordis: {} has no outputs, so there is nothing to render", model.path.display());
-        eprintln!("  hint: add `sox NAME MASS` to record a position, or `sof NAME LINK` for a force");
+        eprintln!(
+            "cordis: {} has no outputs, so there is nothing to render",
+            model.path.display()
+        );
+        eprintln!(
+            "  hint: add `sox NAME MASS` to record a position, or `sof NAME LINK` for a force"
+        );
         return exit::INVALID;
     }
     if format == Format::Wav && model.rate.fract() != 0.0 {
-        eprintln!("cordis: a WAV file needs a whole-number sample rate, and the model runs at {} Hz", model.rate);
+        eprintln!(
+            "cordis: a WAV file needs a whole-number sample rate, and the model runs at {} Hz",
+            model.rate
+        );
         eprintln!("  hint: write .csv or .f64, or use a whole rate");
         return exit::INVALID;
     }
@@ -131,12 +172,17 @@ pub fn render(args: &RenderArgs) -> u8 {
             return exit::UNSTABLE;
         }
         done += n;
-        if !bar_shown && started.elapsed() > Duration::from_millis(700) && std::io::stderr().is_terminal() {
+        if !bar_shown
+            && started.elapsed() > Duration::from_millis(700)
+            && std::io::stderr().is_terminal()
+        {
             bar.set_length(frames as u64);
             bar.set_style(
-                ProgressStyle::with_template("{spinner} rendering [{bar:40}] {percent:>3}% {pos}/{len} samples, eta {eta}")
-                    .unwrap_or_else(|_| ProgressStyle::default_bar())
-                    .progress_chars("=> "),
+                ProgressStyle::with_template(
+                    "{spinner} rendering [{bar:40}] {percent:>3}% {pos}/{len} samples, eta {eta}",
+                )
+                .unwrap_or_else(|_| ProgressStyle::default_bar())
+                .progress_chars("=> "),
             );
             bar.set_draw_target(ProgressDrawTarget::stderr());
             bar_shown = true;
@@ -178,7 +224,13 @@ pub fn render(args: &RenderArgs) -> u8 {
             } else if peak < 1e-6 && peak > 0.0 {
                 eprintln!("cordis: warning: the peak is {peak:.3e} ({:.1} dBFS): nearly inaudible; add --normalize", 20.0 * peak.log10());
             }
-            output::write_wav(pending.path(), &data, channels, model.rate as u32, args.sample_format)
+            output::write_wav(
+                pending.path(),
+                &data,
+                channels,
+                model.rate as u32,
+                args.sample_format,
+            )
         }
     };
     if let Err(e) = result.and_then(|()| pending.commit()) {
@@ -218,7 +270,13 @@ fn report_blow_up(model: &Model, b: BlowUp) {
         .links_of(m)
         .into_iter()
         .take(6)
-        .map(|l| format!("{} ({})", model.links[l.index()].name, net.links[l.index()].law.kind().to_ascii_lowercase()))
+        .map(|l| {
+            format!(
+                "{} ({})",
+                model.links[l.index()].name,
+                net.links[l.index()].law.kind().to_ascii_lowercase()
+            )
+        })
         .collect();
     if !links.is_empty() {
         eprintln!("  its interactions: {}", links.join(", "));

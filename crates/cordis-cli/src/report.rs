@@ -4,13 +4,20 @@ use std::io::IsTerminal;
 
 use codespan_reporting::diagnostic::{Diagnostic as Cs, Label};
 use codespan_reporting::files::SimpleFile;
-use codespan_reporting::term::{self, termcolor::{ColorChoice, StandardStream}};
+use codespan_reporting::term::{
+    self,
+    termcolor::{ColorChoice, StandardStream},
+};
 use cordis_model::{Diagnostic, LoadError, Severity};
 
 /// Prints diagnostics that point into `source` (the model file at `path`).
 pub fn emit(path: &std::path::Path, source: &str, diags: &[Diagnostic]) {
     let file = SimpleFile::new(path.display().to_string(), source);
-    let choice = if std::io::stderr().is_terminal() { ColorChoice::Auto } else { ColorChoice::Never };
+    let choice = if std::io::stderr().is_terminal() {
+        ColorChoice::Auto
+    } else {
+        ColorChoice::Never
+    };
     let stream = StandardStream::stderr(choice);
     let config = term::Config::default();
     for d in diags {
@@ -47,5 +54,10 @@ pub fn emit(path: &std::path::Path, source: &str, diags: &[Diagnostic]) {
 pub fn emit_load_error(e: &LoadError) {
     emit(&e.path, &e.source, &e.diagnostics);
     let n = e.errors().count();
-    eprintln!("cordis: {} error{} in {}", n, if n == 1 { "" } else { "s" }, e.path.display());
+    eprintln!(
+        "cordis: {} error{} in {}",
+        n,
+        if n == 1 { "" } else { "s" },
+        e.path.display()
+    );
 }

@@ -21,6 +21,7 @@
 //! mass-steps (default 2e8, as `baselines.sh`), i.e. `steps = work / masses` (at least 1000). Each
 //! model is timed 5 times, cordis and the baseline back to back, and the medians are printed.
 //! cordis runs in blocks of 1024 frames into one reused output buffer.
+#![allow(clippy::unwrap_used)] // tests and benches may panic on failure
 
 use std::hint::black_box;
 use std::time::Instant;

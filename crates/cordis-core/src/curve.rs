@@ -130,7 +130,11 @@ impl Curve {
     /// The integral of the curve from 0 to `x` (potential energy of an LNL spring curve).
     pub fn integral_from_zero(&self, x: f64) -> f64 {
         // Integrate piecewise; evaluate on the breakpoints between 0 and x.
-        let (lo, hi, sign) = if x >= 0.0 { (0.0, x, 1.0) } else { (x, 0.0, -1.0) };
+        let (lo, hi, sign) = if x >= 0.0 {
+            (0.0, x, 1.0)
+        } else {
+            (x, 0.0, -1.0)
+        };
         let mut cuts: Vec<f64> = vec![lo];
         cuts.extend(self.xs.iter().copied().filter(|&a| a > lo && a < hi));
         cuts.push(hi);

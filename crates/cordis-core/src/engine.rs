@@ -167,14 +167,23 @@ impl Engine {
                 }
                 Material::Cel { m, k, z, r, .. } => {
                     e.n_cel += 1;
-                    e.cel.push(Cel { m: *m, a: 2.0 - (k + z) / m, b: z / m - 1.0, r: *r });
+                    e.cel.push(Cel {
+                        m: *m,
+                        a: 2.0 - (k + z) / m,
+                        b: z / m - 1.0,
+                        r: *r,
+                    });
                 }
                 Material::Enx { signal } => e.enx.push(signal.clone()),
                 Material::Sol { .. } => {}
             }
         }
         let slot_of = |id: MatId| -> u32 {
-            assert!(id.index() < nm, "link or input refers to material #{} of {nm}", id.0);
+            assert!(
+                id.index() < nm,
+                "link or input refers to material #{} of {nm}",
+                id.0
+            );
             e.slot[id.index()]
         };
         let mut groups = (
@@ -208,7 +217,11 @@ impl Engine {
             .map(|o| match *o {
                 Output::Position(m) => Channel::Position(slot_of(m)),
                 Output::Force(l) => {
-                    assert!(l.index() < net.links.len(), "output refers to link #{}", l.0);
+                    assert!(
+                        l.index() < net.links.len(),
+                        "output refers to link #{}",
+                        l.0
+                    );
                     Channel::Force(l.0)
                 }
             })
@@ -275,9 +288,16 @@ impl Engine {
     #[track_caller]
     pub fn process(&mut self, frames: usize, out: &mut [f64]) -> Result<(), BlowUp> {
         let ch = self.channels.len();
-        assert_eq!(out.len(), frames * ch, "output buffer must hold frames * channels values");
+        assert_eq!(
+            out.len(),
+            frames * ch,
+            "output buffer must hold frames * channels values"
+        );
         if let Some(b) = self.blown {
-            return Err(BlowUp { valid_frames: 0, ..b });
+            return Err(BlowUp {
+                valid_frames: 0,
+                ..b
+            });
         }
         self.snap_x.copy_from_slice(&self.x);
         self.snap_xp.copy_from_slice(&self.xp);
@@ -297,7 +317,11 @@ impl Engine {
             self.step(&mut out[frame * ch..(frame + 1) * ch]);
             if let Some(bad) = self.first_non_finite() {
                 out[(frame + 1) * ch..].fill(0.0);
-                let b = BlowUp { step: self.n, material: bad, valid_frames: frame + 1 };
+                let b = BlowUp {
+                    step: self.n,
+                    material: bad,
+                    valid_frames: frame + 1,
+                };
                 self.blown = Some(b);
                 return Err(b);
             }
@@ -319,24 +343,50 @@ impl Engine {
         let (x, xp, lf) = (&self.x, &self.xp, &mut self.lf);
 
         // 1. Interaction forces f(n) from x(n), x(n-1).
-        for (((&a, &b), &o), &k) in self.res.a.iter().zip(&self.res.b).zip(&self.res.out).zip(&self.res.p) {
+        for (((&a, &b), &o), &k) in self
+            .res
+            .a
+            .iter()
+            .zip(&self.res.b)
+            .zip(&self.res.out)
+            .zip(&self.res.p)
+        {
             let d = x[a as usize] - x[b as usize];
             lf[o as usize] = k * d;
         }
-        for (((&a, &b), &o), &z) in self.fro.a.iter().zip(&self.fro.b).zip(&self.fro.out).zip(&self.fro.p) {
+        for (((&a, &b), &o), &z) in self
+            .fro
+            .a
+            .iter()
+            .zip(&self.fro.b)
+            .zip(&self.fro.out)
+            .zip(&self.fro.p)
+        {
             let (a, b) = (a as usize, b as usize);
             let v = (x[a] - xp[a]) - (x[b] - xp[b]);
             lf[o as usize] = z * v;
         }
-        for (((&a, &b), &o), &(k, z)) in
-            self.refs.a.iter().zip(&self.refs.b).zip(&self.refs.out).zip(&self.refs.p)
+        for (((&a, &b), &o), &(k, z)) in self
+            .refs
+            .a
+            .iter()
+            .zip(&self.refs.b)
+            .zip(&self.refs.out)
+            .zip(&self.refs.p)
         {
             let (a, b) = (a as usize, b as usize);
             let d = x[a] - x[b];
             let v = (x[a] - xp[a]) - (x[b] - xp[b]);
             lf[o as usize] = k * d + z * v;
         }
-        for (((&a, &b), &o), &(k, z, s)) in self.but.a.iter().zip(&self.but.b).zip(&self.but.out).zip(&self.but.p) {
+        for (((&a, &b), &o), &(k, z, s)) in self
+            .but
+            .a
+            .iter()
+            .zip(&self.but.b)
+            .zip(&self.but.out)
+            .zip(&self.but.p)
+        {
             let (a, b) = (a as usize, b as usize);
             lf[o as usize] = if x[b] - x[a] < s {
                 let d = x[a] - x[b];
@@ -346,7 +396,14 @@ impl Engine {
                 0.0
             };
         }
-        for (((&a, &b), &o), (lk, lz)) in self.lnl.a.iter().zip(&self.lnl.b).zip(&self.lnl.out).zip(&self.lnl.p) {
+        for (((&a, &b), &o), (lk, lz)) in self
+            .lnl
+            .a
+            .iter()
+            .zip(&self.lnl.b)
+            .zip(&self.lnl.out)
+            .zip(&self.lnl.p)
+        {
             let (a, b) = (a as usize, b as usize);
             let d = x[a] - x[b];
             let v = (x[a] - xp[a]) - (x[b] - xp[b]);
@@ -374,7 +431,12 @@ impl Engine {
         // 4. Materials compute x(n+1).
         let (x, xp) = (&mut self.x, &mut self.xp);
         let nm = self.n_mas;
-        for (((xi, xpi), fi), &m) in x[..nm].iter_mut().zip(&mut xp[..nm]).zip(&mut f[..nm]).zip(&self.mas_m) {
+        for (((xi, xpi), fi), &m) in x[..nm]
+            .iter_mut()
+            .zip(&mut xp[..nm])
+            .zip(&mut f[..nm])
+            .zip(&self.mas_m)
+        {
             let next = 2.0 * *xi - *xpi + *fi / m;
             *xpi = *xi;
             *xi = next;

@@ -230,7 +230,10 @@ impl Network {
     /// Adds an interaction from end 1 `a` to end 2 `b`.
     #[track_caller]
     pub fn add_link(&mut self, law: Interaction, a: MatId, b: MatId) -> LinkId {
-        assert!(a.index() < self.materials.len() && b.index() < self.materials.len(), "foreign MatId");
+        assert!(
+            a.index() < self.materials.len() && b.index() < self.materials.len(),
+            "foreign MatId"
+        );
         let id = LinkId(u32::try_from(self.links.len()).expect("more than 2^32 links"));
         self.links.push(Link { law, a, b });
         id

@@ -84,10 +84,12 @@ impl Signal {
                 amp * (2.0 * u - 1.0)
             }
             Signal::Envelope(curve) => curve.eval(n as f64),
-            Signal::Samples { data, gain } => match usize::try_from(n).ok().and_then(|i| data.get(i)) {
-                Some(v) => v * gain,
-                None => 0.0,
-            },
+            Signal::Samples { data, gain } => {
+                match usize::try_from(n).ok().and_then(|i| data.get(i)) {
+                    Some(v) => v * gain,
+                    None => 0.0,
+                }
+            }
         }
     }
 
@@ -102,7 +104,9 @@ impl Signal {
                 freq.is_finite() && amp.is_finite() && phase.is_finite()
             }
             Signal::Envelope(c) => c.points().all(|(x, y)| x.is_finite() && y.is_finite()),
-            Signal::Samples { data, gain } => gain.is_finite() && data.iter().all(|v| v.is_finite()),
+            Signal::Samples { data, gain } => {
+                gain.is_finite() && data.iter().all(|v| v.is_finite())
+            }
         }
     }
 }
@@ -123,9 +127,15 @@ mod tests {
     #[test]
     fn impulse_and_step() {
         let i = Signal::Impulse { at: 3, amp: 2.0 };
-        assert_eq!((0..5).map(|n| i.at(n)).collect::<Vec<_>>(), [0.0, 0.0, 0.0, 2.0, 0.0]);
+        assert_eq!(
+            (0..5).map(|n| i.at(n)).collect::<Vec<_>>(),
+            [0.0, 0.0, 0.0, 2.0, 0.0]
+        );
         let s = Signal::Step { at: 2, amp: -1.0 };
-        assert_eq!((0..4).map(|n| s.at(n)).collect::<Vec<_>>(), [0.0, 0.0, -1.0, -1.0]);
+        assert_eq!(
+            (0..4).map(|n| s.at(n)).collect::<Vec<_>>(),
+            [0.0, 0.0, -1.0, -1.0]
+        );
     }
 
     #[test]
@@ -142,7 +152,10 @@ mod tests {
 
     #[test]
     fn samples_end_in_silence() {
-        let s = Signal::Samples { data: vec![1.0, 2.0].into(), gain: 0.5 };
+        let s = Signal::Samples {
+            data: vec![1.0, 2.0].into(),
+            gain: 0.5,
+        };
         assert_eq!([s.at(0), s.at(1), s.at(2)], [0.5, 1.0, 0.0]);
     }
 }

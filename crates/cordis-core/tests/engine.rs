@@ -1,4 +1,5 @@
 //! The engine against the plain reference stepper, and its determinism guarantees.
+#![allow(clippy::unwrap_used)] // tests and benches may panic on failure
 
 mod common;
 
@@ -34,9 +35,16 @@ fn output_is_independent_of_block_size_and_deterministic() {
     let net = every_module_network();
     let a = render(&net, 5000, 1);
     for block in [2, 7, 64, 1000, 5000] {
-        assert_eq!(first_bit_difference(&render(&net, 5000, block), &a), None, "block {block}");
+        assert_eq!(
+            first_bit_difference(&render(&net, 5000, block), &a),
+            None,
+            "block {block}"
+        );
     }
-    assert_eq!(first_bit_difference(&render(&net, 5000, 64), &render(&net, 5000, 64)), None);
+    assert_eq!(
+        first_bit_difference(&render(&net, 5000, 64), &render(&net, 5000, 64)),
+        None
+    );
 }
 
 #[test]
@@ -55,8 +63,14 @@ fn reset_reproduces_the_run() {
 #[test]
 fn sample_zero_is_x0_and_enx_starts_at_rest() {
     let mut net = Network::new();
-    let m = net.add_material(Material::Mas { m: 2.0, x0: 0.25, v0: 0.5 });
-    let e = net.add_material(Material::Enx { signal: Signal::Step { at: 0, amp: 3.0 } });
+    let m = net.add_material(Material::Mas {
+        m: 2.0,
+        x0: 0.25,
+        v0: 0.5,
+    });
+    let e = net.add_material(Material::Enx {
+        signal: Signal::Step { at: 0, amp: 3.0 },
+    });
     net.add_position_output(m);
     net.add_position_output(e);
     let out = render(&net, 3, 3);
@@ -69,8 +83,20 @@ fn but_orientation_and_threshold() {
     // End 2 below end 1 + S: active; the force pushes end 2 up (+f) and end 1 down (-f).
     let mut net = Network::new();
     let a = net.add_material(Material::Sol { x0: 0.0 });
-    let b = net.add_material(Material::Mas { m: 1.0, x0: 0.05, v0: 0.0 });
-    let l = net.add_link(Interaction::But { k: 0.1, z: 0.0, s: 0.1 }, a, b);
+    let b = net.add_material(Material::Mas {
+        m: 1.0,
+        x0: 0.05,
+        v0: 0.0,
+    });
+    let l = net.add_link(
+        Interaction::But {
+            k: 0.1,
+            z: 0.0,
+            s: 0.1,
+        },
+        a,
+        b,
+    );
     net.add_force_output(l);
     net.add_position_output(b);
     let out = render(&net, 2, 1);
@@ -80,8 +106,20 @@ fn but_orientation_and_threshold() {
     // Above the threshold there is no force.
     let mut net = Network::new();
     let a = net.add_material(Material::Sol { x0: 0.0 });
-    let b = net.add_material(Material::Mas { m: 1.0, x0: 0.2, v0: 0.0 });
-    let l = net.add_link(Interaction::But { k: 0.1, z: 0.5, s: 0.1 }, a, b);
+    let b = net.add_material(Material::Mas {
+        m: 1.0,
+        x0: 0.2,
+        v0: 0.0,
+    });
+    let l = net.add_link(
+        Interaction::But {
+            k: 0.1,
+            z: 0.5,
+            s: 0.1,
+        },
+        a,
+        b,
+    );
     net.add_force_output(l);
     assert_eq!(render(&net, 1, 1), [0.0]);
 }
@@ -91,15 +129,26 @@ fn a_blow_up_names_the_first_module_and_step() {
     // K/M = 5 > 4: the explicit scheme diverges.
     let mut net = Network::new();
     let g = net.add_material(Material::Sol { x0: 0.0 });
-    let quiet = net.add_material(Material::Mas { m: 1.0, x0: 0.0, v0: 0.0 });
-    let m = net.add_material(Material::Mas { m: 1.0, x0: 1.0, v0: 0.0 });
+    let quiet = net.add_material(Material::Mas {
+        m: 1.0,
+        x0: 0.0,
+        v0: 0.0,
+    });
+    let m = net.add_material(Material::Mas {
+        m: 1.0,
+        x0: 1.0,
+        v0: 0.0,
+    });
     net.add_link(Interaction::Res { k: 5.0 }, g, m);
     net.add_position_output(m);
     net.add_position_output(quiet);
     // independently: the first step where the reference stepper's output is not finite
     let steps = 2000;
     let refout = reference(&net, steps);
-    let first_bad = refout.chunks(2).position(|f| !f[0].is_finite()).expect("diverges") as u64;
+    let first_bad = refout
+        .chunks(2)
+        .position(|f| !f[0].is_finite())
+        .expect("diverges") as u64;
     for block in [1, 64, 4096] {
         let mut e = Engine::new(&net);
         let mut out = vec![0.0; block * 2];
@@ -126,13 +175,22 @@ fn link_force_and_positions_are_observable() {
     e.process(10, &mut out).unwrap();
     assert_eq!(e.step_index(), 10);
     let sof = out[9 * e.channels() + 4];
-    assert_eq!(e.link_force(cordis_core::LinkId(0)).to_bits(), sof.to_bits());
+    assert_eq!(
+        e.link_force(cordis_core::LinkId(0)).to_bits(),
+        sof.to_bits()
+    );
     assert!(e.position(cordis_core::MatId(0)) == 0.0);
 }
 
 #[test]
 fn curves_agree_with_the_linear_scan() {
-    let pts = [(-1.0, 0.5), (-0.5, -0.5), (-0.5, 0.2), (0.3, 0.9), (2.0, -1.0)];
+    let pts = [
+        (-1.0, 0.5),
+        (-0.5, -0.5),
+        (-0.5, 0.2),
+        (0.3, 0.9),
+        (2.0, -1.0),
+    ];
     let c = cordis_core::Curve::new(&pts).unwrap();
     let mut rng = Lcg(9);
     for _ in 0..10_000 {

@@ -1,4 +1,5 @@
 //! `Engine::process` never allocates (STYLE.md practice 3): a counting global allocator watches it.
+#![allow(clippy::unwrap_used)] // tests and benches may panic on failure
 
 mod common;
 

@@ -21,7 +21,10 @@ impl Span {
     /// The smallest span covering both.
     pub fn to(self, other: Span) -> Span {
         if other.end >= self.end {
-            Span { end: other.end, ..self }
+            Span {
+                end: other.end,
+                ..self
+            }
         } else {
             self
         }
@@ -92,8 +95,18 @@ pub struct Diagnostic {
 
 impl Diagnostic {
     /// An error at `span`.
-    pub fn error(kind: ErrorKind, span: impl Into<Option<Span>>, message: impl Into<String>) -> Diagnostic {
-        Diagnostic { severity: Severity::Error, kind, message: message.into(), span: span.into(), hint: None }
+    pub fn error(
+        kind: ErrorKind,
+        span: impl Into<Option<Span>>,
+        message: impl Into<String>,
+    ) -> Diagnostic {
+        Diagnostic {
+            severity: Severity::Error,
+            kind,
+            message: message.into(),
+            span: span.into(),
+            hint: None,
+        }
     }
 
     /// A warning at `span`.
@@ -137,7 +150,9 @@ pub struct LoadError {
 impl LoadError {
     /// The errors only.
     pub fn errors(&self) -> impl Iterator<Item = &Diagnostic> {
-        self.diagnostics.iter().filter(|d| d.severity == Severity::Error)
+        self.diagnostics
+            .iter()
+            .filter(|d| d.severity == Severity::Error)
     }
 }
 
@@ -176,7 +191,10 @@ impl std::error::Error for LoadError {}
 
 /// The closest candidate to `word`, if close enough to suggest: one edit away, or similar by the
 /// Jaro-Winkler measure (case-insensitive).
-pub fn did_you_mean<'a>(word: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<String> {
+pub fn did_you_mean<'a>(
+    word: &str,
+    candidates: impl IntoIterator<Item = &'a str>,
+) -> Option<String> {
     let w = word.to_ascii_lowercase();
     let mut best: Option<((usize, f64), &str)> = None;
     for c in candidates {

@@ -113,7 +113,10 @@ impl Env {
 
     /// Evaluates a numeric expression.
     pub fn eval(&self, e: &Expr) -> Result<Value, Diagnostic> {
-        let plain = |v| Value { v, kind: Kind::Plain };
+        let plain = |v| Value {
+            v,
+            kind: Kind::Plain,
+        };
         let r = match &e.kind {
             ExprKind::Num(v) => plain(*v),
             ExprKind::Name(n) => match self.lets.get(n) {
@@ -122,8 +125,12 @@ impl Env {
                 None => {
                     let hint = did_you_mean(n, self.lets.keys().map(String::as_str).chain(["pi"]))
                         .unwrap_or_else(|| "define it first with `let NAME = VALUE`".into());
-                    return Err(Diagnostic::error(ErrorKind::UnknownName, e.span, format!("unknown value `{n}`"))
-                        .with_hint(hint));
+                    return Err(Diagnostic::error(
+                        ErrorKind::UnknownName,
+                        e.span,
+                        format!("unknown value `{n}`"),
+                    )
+                    .with_hint(hint));
                 }
             },
             ExprKind::Neg(a) => {
@@ -139,17 +146,30 @@ impl Env {
                     BinOp::Div => a.v / b.v,
                     BinOp::Pow => a.v.powf(b.v),
                 };
-                Value { v, kind: combine(*op, a.kind, b.kind) }
+                Value {
+                    v,
+                    kind: combine(*op, a.kind, b.kind),
+                }
             }
             ExprKind::Call(f, args) => {
                 let name = f.text.to_ascii_lowercase();
                 if !FUNCTIONS.contains(&name.as_str()) {
-                    return Err(Diagnostic::error(ErrorKind::UnknownName, f.span, format!("unknown function `{}`", f.text))
-                        .with_hint(did_you_mean(&f.text, FUNCTIONS.iter().copied())
-                            .unwrap_or_else(|| format!("functions are {}", FUNCTIONS.join(", ")))));
+                    return Err(Diagnostic::error(
+                        ErrorKind::UnknownName,
+                        f.span,
+                        format!("unknown function `{}`", f.text),
+                    )
+                    .with_hint(
+                        did_you_mean(&f.text, FUNCTIONS.iter().copied())
+                            .unwrap_or_else(|| format!("functions are {}", FUNCTIONS.join(", "))),
+                    ));
                 }
                 if args.len() != 1 || args[0].key.is_some() {
-                    return Err(Diagnostic::error(ErrorKind::Syntax, e.span, format!("`{name}` takes one value")));
+                    return Err(Diagnostic::error(
+                        ErrorKind::Syntax,
+                        e.span,
+                        format!("`{name}` takes one value"),
+                    ));
                 }
                 let a = self.eval(&args[0].value)?;
                 let v = match name.as_str() {
@@ -161,7 +181,11 @@ impl Env {
                     "log" => a.v.ln(),
                     _ => a.v.abs(),
                 };
-                let kind = if name == "abs" || a.kind == Kind::Plain { a.kind } else { Kind::Mixed };
+                let kind = if name == "abs" || a.kind == Kind::Plain {
+                    a.kind
+                } else {
+                    Kind::Mixed
+                };
                 Value { v, kind }
             }
             ExprKind::Unit(inner, unit) => {
@@ -170,13 +194,20 @@ impl Env {
                     return Err(Diagnostic::error(
                         ErrorKind::UnitMismatch,
                         unit.span,
-                        format!("a unit on a value that already has one ({})", a.kind.describe()),
+                        format!(
+                            "a unit on a value that already has one ({})",
+                            a.kind.describe()
+                        ),
                     ));
                 }
                 self.convert(a.v, &unit.text)
             }
             ExprKind::Str(_) | ExprKind::Tuple(_) | ExprKind::Curve(_) | ExprKind::List(_) => {
-                return Err(Diagnostic::error(ErrorKind::Syntax, e.span, "expected a number here"));
+                return Err(Diagnostic::error(
+                    ErrorKind::Syntax,
+                    e.span,
+                    "expected a number here",
+                ));
             }
         };
         if !r.v.is_finite() {
@@ -194,7 +225,11 @@ impl Env {
             return Err(Diagnostic::error(
                 ErrorKind::UnitMismatch,
                 e.span,
-                format!("{what} expects {}, but this is {}", want.describe(), v.kind.describe()),
+                format!(
+                    "{what} expects {}, but this is {}",
+                    want.describe(),
+                    v.kind.describe()
+                ),
             ));
         }
         Ok(v.v)
@@ -207,7 +242,16 @@ mod tests {
     use crate::syntax::parse_expr;
 
     fn ev(text: &str) -> Value {
-        let env = Env { fs: 44100.0, lets: HashMap::from([("k".into(), Value { v: 0.5, kind: Kind::Plain })]) };
+        let env = Env {
+            fs: 44100.0,
+            lets: HashMap::from([(
+                "k".into(),
+                Value {
+                    v: 0.5,
+                    kind: Kind::Plain,
+                },
+            )]),
+        };
         env.eval(&parse_expr(text).unwrap()).unwrap()
     }
 
@@ -224,7 +268,13 @@ mod tests {
 
     #[test]
     fn units_convert_exactly_with_the_rate() {
-        assert_eq!(ev("10ms"), Value { v: 441.0, kind: Kind::Time });
+        assert_eq!(
+            ev("10ms"),
+            Value {
+                v: 441.0,
+                kind: Kind::Time
+            }
+        );
         assert_eq!(ev("1.5s").v, 66150.0);
         assert_eq!(ev("441Hz").v, 0.01);
         assert_eq!(ev("44100N/m").v, 1.0 / 44100.0);
@@ -235,8 +285,13 @@ mod tests {
 
     #[test]
     fn wrong_kinds_are_refused() {
-        let env = Env { fs: 44100.0, lets: HashMap::new() };
-        let e = env.number(&parse_expr("440Hz").unwrap(), Kind::Stiffness, "K").unwrap_err();
+        let env = Env {
+            fs: 44100.0,
+            lets: HashMap::new(),
+        };
+        let e = env
+            .number(&parse_expr("440Hz").unwrap(), Kind::Stiffness, "K")
+            .unwrap_err();
         assert_eq!(e.kind, ErrorKind::UnitMismatch);
         assert!(e.message.contains("K expects a stiffness"), "{}", e.message);
         assert!(env.eval(&parse_expr("1/0").unwrap()).is_err());

@@ -22,6 +22,8 @@
 //! assert_eq!(out[0], 1.0);
 //! ```
 #![warn(missing_docs)]
+// `!(x > 0.0)` is how this crate rejects NaN along with the out-of-range values: intended.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 mod error;
 pub mod eval;
@@ -31,4 +33,6 @@ pub mod stability;
 pub mod syntax;
 
 pub use error::{did_you_mean, Diagnostic, ErrorKind, LoadError, Severity, Span};
-pub use model::{cel_from_modal, cel_modal, eval_text, load_file, load_str, Limits, Model, Named, Options};
+pub use model::{
+    cel_from_modal, cel_modal, eval_text, load_file, load_str, Limits, Model, Named, Options,
+};

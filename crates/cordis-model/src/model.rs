@@ -26,7 +26,12 @@ pub struct Limits {
 
 impl Default for Limits {
     fn default() -> Limits {
-        Limits { max_modules: 2_000_000, max_duration_s: 600.0, max_rate: 1_000_000.0, max_curve_points: 10_000 }
+        Limits {
+            max_modules: 2_000_000,
+            max_duration_s: 600.0,
+            max_rate: 1_000_000.0,
+            max_curve_points: 10_000,
+        }
     }
 }
 
@@ -107,8 +112,12 @@ pub fn load_file(path: &Path, opts: &Options) -> Result<Model, LoadError> {
         Err(e) => Err(LoadError {
             path: path.to_path_buf(),
             source: Arc::from(""),
-            diagnostics: vec![Diagnostic::error(ErrorKind::Io, None, format!("cannot read the model file: {e}"))
-                .with_hint("check the path; model files usually end in .cordis")],
+            diagnostics: vec![Diagnostic::error(
+                ErrorKind::Io,
+                None,
+                format!("cannot read the model file: {e}"),
+            )
+            .with_hint("check the path; model files usually end in .cordis")],
         }),
     }
 }
@@ -125,7 +134,11 @@ pub fn load_str(path: &Path, text: &str, opts: &Options) -> Result<Model, LoadEr
     let has_errors = diags.iter().any(|d| d.severity == Severity::Error);
     diags.sort_by_key(|d| (d.severity != Severity::Error, d.span.map_or(0, |s| s.start)));
     if has_errors {
-        return Err(LoadError { path: path.to_path_buf(), source, diagnostics: diags });
+        return Err(LoadError {
+            path: path.to_path_buf(),
+            source,
+            diagnostics: diags,
+        });
     }
     Ok(Model {
         path: path.to_path_buf(),
@@ -179,11 +192,19 @@ struct Params<'p> {
 
 impl<'p> Params<'p> {
     fn new(list: &'p [Param]) -> Params<'p> {
-        Params { list, used: vec![false; list.len()], accepted: Vec::new() }
+        Params {
+            list,
+            used: vec![false; list.len()],
+            accepted: Vec::new(),
+        }
     }
 
     /// The value of `key` (case-insensitive; `aliases` are other accepted spellings).
-    fn get(&mut self, key: &'static str, aliases: &[&'static str]) -> Result<Option<&'p Param>, Diagnostic> {
+    fn get(
+        &mut self,
+        key: &'static str,
+        aliases: &[&'static str],
+    ) -> Result<Option<&'p Param>, Diagnostic> {
         self.accepted.push(key);
         let mut found: Option<&'p Param> = None;
         for (i, p) in self.list.iter().enumerate() {
@@ -193,7 +214,10 @@ impl<'p> Params<'p> {
                     return Err(Diagnostic::error(
                         ErrorKind::ConflictingParameter,
                         p.key.span,
-                        format!("`{}` is given twice (first at column {})", p.key.text, prev.key.span.col),
+                        format!(
+                            "`{}` is given twice (first at column {})",
+                            p.key.text, prev.key.span.col
+                        ),
                     ));
                 }
                 self.used[i] = true;
@@ -230,7 +254,10 @@ impl<'a> Builder<'a> {
             opts,
             fs: 44100.0,
             duration: 44100,
-            env: Env { fs: 44100.0, lets: HashMap::new() },
+            env: Env {
+                fs: 44100.0,
+                lets: HashMap::new(),
+            },
             net: Network::new(),
             names: HashMap::new(),
             mat_names: Vec::new(),
@@ -245,7 +272,8 @@ impl<'a> Builder<'a> {
     }
 
     fn cli_error(&mut self, kind: ErrorKind, msg: String, hint: Option<String>) {
-        self.diags.push(Diagnostic::error(kind, None, msg).with_hint_opt(hint));
+        self.diags
+            .push(Diagnostic::error(kind, None, msg).with_hint_opt(hint));
     }
 
     fn run(&mut self, stmts: &[Statement]) {
@@ -255,7 +283,13 @@ impl<'a> Builder<'a> {
             return;
         }
         for s in stmts {
-            if let Statement::Module { keyword, refs, span, .. } = s {
+            if let Statement::Module {
+                keyword,
+                refs,
+                span,
+                ..
+            } = s
+            {
                 if keyword.text != "init" {
                     if let Some((w, idx)) = refs.first().and_then(|r| r.parts.first()) {
                         if idx.is_empty() {
@@ -272,13 +306,20 @@ impl<'a> Builder<'a> {
                 Statement::Setting { keyword, value, .. } if keyword.text == "duration" => {
                     duration_set = true;
                     if self.opts.duration.is_none() {
-                        self.env.number(value, Kind::Time, "duration").and_then(|d| self.set_duration(d, value.span.into()))
+                        self.env
+                            .number(value, Kind::Time, "duration")
+                            .and_then(|d| self.set_duration(d, value.span.into()))
                     } else {
                         Ok(())
                     }
                 }
                 Statement::Setting { .. } => Ok(()), // rate: done
-                Statement::Module { keyword, refs, params, span } => self.module(keyword, refs, params, *span),
+                Statement::Module {
+                    keyword,
+                    refs,
+                    params,
+                    span,
+                } => self.module(keyword, refs, params, *span),
             };
             if let Err(e) = r {
                 if let Statement::Module { keyword, refs, .. } = s {
@@ -300,13 +341,18 @@ impl<'a> Builder<'a> {
             }
         }
         if let Some(d) = self.opts.duration.clone() {
-            match syntax::parse_expr(&d).and_then(|e| self.env.number(&e, Kind::Time, "--duration")) {
+            match syntax::parse_expr(&d).and_then(|e| self.env.number(&e, Kind::Time, "--duration"))
+            {
                 Ok(v) => {
                     if let Err(e) = self.set_duration(v, None) {
                         self.diags.push(e);
                     }
                 }
-                Err(e) => self.cli_error(e.kind, format!("--duration {d}: {}", e.message), Some("give a time such as 2s, 500ms or 88200 (samples)".into())),
+                Err(e) => self.cli_error(
+                    e.kind,
+                    format!("--duration {d}: {}", e.message),
+                    Some("give a time such as 2s, 500ms or 88200 (samples)".into()),
+                ),
             }
         } else if !duration_set {
             self.duration = self.fs.round() as u64; // default: one second
@@ -314,27 +360,50 @@ impl<'a> Builder<'a> {
         for (i, (name, _)) in self.opts.sets.iter().enumerate() {
             if !self.set_used[i] {
                 let hint = did_you_mean(name, self.env.lets.keys().map(String::as_str))
-                    .unwrap_or_else(|| "--set only changes values the model defines with `let`".into());
-                self.cli_error(ErrorKind::UnknownName, format!("--set {name}: the model has no `let {name}`"), Some(hint));
+                    .unwrap_or_else(|| {
+                        "--set only changes values the model defines with `let`".into()
+                    });
+                self.cli_error(
+                    ErrorKind::UnknownName,
+                    format!("--set {name}: the model has no `let {name}`"),
+                    Some(hint),
+                );
             }
         }
         if self.net.outputs.is_empty() && self.diags.is_empty() {
             self.diags.push(
-                Diagnostic::warning(None, "the model has no outputs: a render would write nothing")
-                    .with_hint("add `sox NAME MASS` to record a position or `sof NAME LINK` for a force"),
+                Diagnostic::warning(
+                    None,
+                    "the model has no outputs: a render would write nothing",
+                )
+                .with_hint(
+                    "add `sox NAME MASS` to record a position or `sof NAME LINK` for a force",
+                ),
             );
         }
     }
 
     fn resolve_rate(&mut self, stmts: &[Statement]) -> R<()> {
-        let rate_env = Env { fs: 1.0, lets: HashMap::new() };
+        let rate_env = Env {
+            fs: 1.0,
+            lets: HashMap::new(),
+        };
         let mut rate = 44100.0;
         let mut seen: Option<Span> = None;
         for s in stmts {
-            if let Statement::Setting { keyword, value, span } = s {
+            if let Statement::Setting {
+                keyword,
+                value,
+                span,
+            } = s
+            {
                 if keyword.text == "rate" {
                     if let Some(first) = seen {
-                        return Err(Diagnostic::error(ErrorKind::DuplicateName, *span, format!("`rate` is set twice (first at line {})", first.line)));
+                        return Err(Diagnostic::error(
+                            ErrorKind::DuplicateName,
+                            *span,
+                            format!("`rate` is set twice (first at line {})", first.line),
+                        ));
                     }
                     seen = Some(*span);
                     rate = rate_env.number(value, Kind::Freq, "rate").map_err(|e| {
@@ -351,7 +420,9 @@ impl<'a> Builder<'a> {
         if let Some(r) = &self.opts.rate {
             rate = syntax::parse_expr(r)
                 .and_then(|e| rate_env.number(&e, Kind::Freq, "--rate"))
-                .map_err(|e| Diagnostic::error(e.kind, None, format!("--rate {r}: {}", e.message)))?;
+                .map_err(|e| {
+                    Diagnostic::error(e.kind, None, format!("--rate {r}: {}", e.message))
+                })?;
             self.check_rate(rate, None)?;
         }
         self.fs = rate;
@@ -362,25 +433,40 @@ impl<'a> Builder<'a> {
     fn check_rate(&self, rate: f64, span: Option<Span>) -> R<()> {
         let max = self.opts.limits.max_rate;
         if !(rate >= 1.0) {
-            return Err(Diagnostic::error(ErrorKind::OutOfRange, span, format!("the sample rate must be at least 1 Hz, not {rate}")));
+            return Err(Diagnostic::error(
+                ErrorKind::OutOfRange,
+                span,
+                format!("the sample rate must be at least 1 Hz, not {rate}"),
+            ));
         }
         if rate > max {
-            return Err(Diagnostic::error(ErrorKind::Limit, span, format!("a sample rate of {rate} Hz is above the limit of {max} Hz"))
-                .with_hint("raise the limit with --max-rate"));
+            return Err(Diagnostic::error(
+                ErrorKind::Limit,
+                span,
+                format!("a sample rate of {rate} Hz is above the limit of {max} Hz"),
+            )
+            .with_hint("raise the limit with --max-rate"));
         }
         Ok(())
     }
 
     fn set_duration(&mut self, samples: f64, span: Option<Span>) -> R<()> {
         if !(samples >= 0.0) {
-            return Err(Diagnostic::error(ErrorKind::OutOfRange, span, "the duration must not be negative"));
+            return Err(Diagnostic::error(
+                ErrorKind::OutOfRange,
+                span,
+                "the duration must not be negative",
+            ));
         }
         let max = self.opts.limits.max_duration_s;
         if samples / self.fs > max {
             return Err(Diagnostic::error(
                 ErrorKind::Limit,
                 span,
-                format!("a duration of {:.3} s is above the limit of {max} s", samples / self.fs),
+                format!(
+                    "a duration of {:.3} s is above the limit of {max} s",
+                    samples / self.fs
+                ),
             )
             .with_hint("raise the limit with --max-duration SECONDS"));
         }
@@ -388,7 +474,10 @@ impl<'a> Builder<'a> {
         if samples > 0.0 && samples < 100.0 {
             self.diags.push(
                 Diagnostic::warning(span, format!("the duration is {} samples", self.duration))
-                    .with_hint(format!("a bare number is in samples; for seconds write {}s", samples)),
+                    .with_hint(format!(
+                        "a bare number is in samples; for seconds write {}s",
+                        samples
+                    )),
             );
         }
         Ok(())
@@ -396,18 +485,33 @@ impl<'a> Builder<'a> {
 
     fn let_stmt(&mut self, name: &Word, value: &Expr) -> R<()> {
         if self.env.lets.contains_key(&name.text) {
-            return Err(Diagnostic::error(ErrorKind::DuplicateName, name.span, format!("`{}` is already defined", name.text)));
+            return Err(Diagnostic::error(
+                ErrorKind::DuplicateName,
+                name.span,
+                format!("`{}` is already defined", name.text),
+            ));
         }
         if name.text == "pi" {
-            return Err(Diagnostic::error(ErrorKind::DuplicateName, name.span, "`pi` is a built-in constant"));
+            return Err(Diagnostic::error(
+                ErrorKind::DuplicateName,
+                name.span,
+                "`pi` is a built-in constant",
+            ));
         }
         let mut v = self.env.eval(value)?;
         if let Some(i) = self.opts.sets.iter().rposition(|(n, _)| *n == name.text) {
             self.set_used[i] = true;
             let text = &self.opts.sets[i].1;
-            v = syntax::parse_expr(text).and_then(|e| self.env.eval(&e)).map_err(|e| {
-                Diagnostic::error(e.kind, name.span, format!("--set {}={text}: {}", name.text, e.message)).with_hint_opt(e.hint)
-            })?;
+            v = syntax::parse_expr(text)
+                .and_then(|e| self.env.eval(&e))
+                .map_err(|e| {
+                    Diagnostic::error(
+                        e.kind,
+                        name.span,
+                        format!("--set {}={text}: {}", name.text, e.message),
+                    )
+                    .with_hint_opt(e.hint)
+                })?;
         }
         self.env.lets.insert(name.text.clone(), v);
         Ok(())
@@ -426,8 +530,12 @@ impl<'a> Builder<'a> {
         }
         let budget = self.opts.limits.max_modules;
         if self.names.len() >= budget {
-            return Err(Diagnostic::error(ErrorKind::Limit, span, format!("the model has more than {budget} modules"))
-                .with_hint("raise the limit with --max-modules"));
+            return Err(Diagnostic::error(
+                ErrorKind::Limit,
+                span,
+                format!("the model has more than {budget} modules"),
+            )
+            .with_hint("raise the limit with --max-modules"));
         }
         self.names.insert(name, (entity, span));
         Ok(())
@@ -436,8 +544,14 @@ impl<'a> Builder<'a> {
     fn plain_name(&self, r: &Ref) -> R<Word> {
         match r.parts.as_slice() {
             [(w, idx)] if idx.is_empty() => Ok(w.clone()),
-            _ => Err(Diagnostic::error(ErrorKind::Syntax, r.span, "a new module's name must be a plain name")
-                .with_hint("names like `s[3]` and `dev.M1` are made by generators; pick a name such as `m3`")),
+            _ => Err(Diagnostic::error(
+                ErrorKind::Syntax,
+                r.span,
+                "a new module's name must be a plain name",
+            )
+            .with_hint(
+                "names like `s[3]` and `dev.M1` are made by generators; pick a name such as `m3`",
+            )),
         }
     }
 
@@ -453,7 +567,11 @@ impl<'a> Builder<'a> {
                 for (j, e) in idx.iter().enumerate() {
                     let v = self.env.eval(e)?.v;
                     if v.fract() != 0.0 || v < 0.0 {
-                        return Err(Diagnostic::error(ErrorKind::OutOfRange, e.span, format!("an index must be a whole number >= 0, not {v}")));
+                        return Err(Diagnostic::error(
+                            ErrorKind::OutOfRange,
+                            e.span,
+                            format!("an index must be a whole number >= 0, not {v}"),
+                        ));
                     }
                     if j > 0 {
                         out.push(',');
@@ -477,34 +595,60 @@ impl<'a> Builder<'a> {
         }
         if let Some(line) = self.declared_at.get(base) {
             if !self.names.contains_key(base) {
-                return Err(Diagnostic::error(ErrorKind::UnknownName, r.span, format!("`{base}` is used before it is declared (at line {line})"))
-                    .with_hint("move its declaration above this line"));
+                return Err(Diagnostic::error(
+                    ErrorKind::UnknownName,
+                    r.span,
+                    format!("`{base}` is used before it is declared (at line {line})"),
+                )
+                .with_hint("move its declaration above this line"));
             }
         }
         let hint = match self.names.get(base.as_str()) {
-            Some((Entity::Group(kind), _)) if name != *base => {
-                Some(format!("`{base}` is a {kind}; its first mass is `{}`", first_member(base, kind)))
-            }
+            Some((Entity::Group(kind), _)) if name != *base => Some(format!(
+                "`{base}` is a {kind}; its first mass is `{}`",
+                first_member(base, kind)
+            )),
             _ => did_you_mean(&name, self.names.keys().map(String::as_str)),
         };
-        Err(Diagnostic::error(ErrorKind::UnknownName, r.span, format!("no module is named `{name}`"))
-            .with_hint(hint.unwrap_or_else(|| "modules must be declared before they are used".into())))
+        Err(Diagnostic::error(
+            ErrorKind::UnknownName,
+            r.span,
+            format!("no module is named `{name}`"),
+        )
+        .with_hint(hint.unwrap_or_else(|| "modules must be declared before they are used".into())))
     }
 
     fn material(&self, r: &Ref, role: &str) -> R<MatId> {
         match self.lookup(r)? {
             (_, Entity::Mat(m)) => Ok(m),
-            (name, Entity::Group(kind)) => Err(Diagnostic::error(ErrorKind::WrongKind, r.span, format!("`{name}` is a whole {kind}, not one module"))
-                .with_hint(format!("name one of its masses, e.g. `{}`", first_member(&name, kind)))),
-            (name, _) => Err(Diagnostic::error(ErrorKind::WrongKind, r.span, format!("{role} must be a material module (mas, sol, cel, enx), and `{name}` is not"))),
+            (name, Entity::Group(kind)) => Err(Diagnostic::error(
+                ErrorKind::WrongKind,
+                r.span,
+                format!("`{name}` is a whole {kind}, not one module"),
+            )
+            .with_hint(format!(
+                "name one of its masses, e.g. `{}`",
+                first_member(&name, kind)
+            ))),
+            (name, _) => Err(Diagnostic::error(
+                ErrorKind::WrongKind,
+                r.span,
+                format!(
+                    "{role} must be a material module (mas, sol, cel, enx), and `{name}` is not"
+                ),
+            )),
         }
     }
 
     fn link(&self, r: &Ref) -> R<LinkId> {
         match self.lookup(r)? {
             (_, Entity::Link(l)) => Ok(l),
-            (name, _) => Err(Diagnostic::error(ErrorKind::WrongKind, r.span, format!("`{name}` is not an interaction"))
-                .with_hint("`sof` records the force of an interaction (res, fro, ref, but, lnl)")),
+            (name, _) => Err(Diagnostic::error(
+                ErrorKind::WrongKind,
+                r.span,
+                format!("`{name}` is not an interaction"),
+            )
+            .with_hint("`sof` records the force of an interaction (res, fro, ref, but, lnl)")),
         }
     }
 
@@ -516,7 +660,14 @@ impl<'a> Builder<'a> {
         Ok(id)
     }
 
-    fn add_link(&mut self, name: String, law: Interaction, a: MatId, b: MatId, span: Span) -> R<LinkId> {
+    fn add_link(
+        &mut self,
+        name: String,
+        law: Interaction,
+        a: MatId,
+        b: MatId,
+        span: Span,
+    ) -> R<LinkId> {
         let id = LinkId(self.net.links.len() as u32);
         self.declare(name.clone(), Entity::Link(id), span)?;
         self.net.add_link(law, a, b);
@@ -526,42 +677,82 @@ impl<'a> Builder<'a> {
 
     // ---- values --------------------------------------------------------------------------------
 
-    fn num(&self, p: &mut Params, key: &'static str, aliases: &[&'static str], kind: Kind, default: Option<f64>) -> R<f64> {
+    fn num(
+        &self,
+        p: &mut Params,
+        key: &'static str,
+        aliases: &[&'static str],
+        kind: Kind,
+        default: Option<f64>,
+    ) -> R<f64> {
         match p.get(key, aliases)? {
             Some(param) => self.env.number(&param.value, kind, key),
-            None => default.ok_or_else(|| Diagnostic::error(ErrorKind::MissingParameter, None, format!("`{key}` is required"))),
+            None => default.ok_or_else(|| {
+                Diagnostic::error(
+                    ErrorKind::MissingParameter,
+                    None,
+                    format!("`{key}` is required"),
+                )
+            }),
         }
     }
 
     fn positive(&self, p: &mut Params, key: &'static str, span: Span) -> R<f64> {
         let param = p.get(key, &[])?.ok_or_else(|| {
-            Diagnostic::error(ErrorKind::MissingParameter, span, format!("the inertia `{key}` is required"))
-                .with_hint(format!("write for example {key}=1"))
+            Diagnostic::error(
+                ErrorKind::MissingParameter,
+                span,
+                format!("the inertia `{key}` is required"),
+            )
+            .with_hint(format!("write for example {key}=1"))
         })?;
         let v = self.env.number(&param.value, Kind::Plain, key)?;
         if !(v > 0.0) {
-            return Err(Diagnostic::error(ErrorKind::OutOfRange, param.value.span, format!("the inertia {key} must be > 0, not {v}"))
-                .with_hint("a module that must not move is a `sol`"));
+            return Err(Diagnostic::error(
+                ErrorKind::OutOfRange,
+                param.value.span,
+                format!("the inertia {key} must be > 0, not {v}"),
+            )
+            .with_hint("a module that must not move is a `sol`"));
         }
         Ok(v)
     }
 
     fn curve(&self, e: &Expr, xk: Kind, yk: Kind, what: &str) -> R<Curve> {
         let ExprKind::Curve(items) = &e.kind else {
-            return Err(Diagnostic::error(ErrorKind::BadCurve, e.span, format!("{what} must be a curve: [(x1, y1) (x2, y2) ...]")));
+            return Err(Diagnostic::error(
+                ErrorKind::BadCurve,
+                e.span,
+                format!("{what} must be a curve: [(x1, y1) (x2, y2) ...]"),
+            ));
         };
         if items.len() > self.opts.limits.max_curve_points {
-            return Err(Diagnostic::error(ErrorKind::Limit, e.span, format!("{what} has {} points; the limit is {}", items.len(), self.opts.limits.max_curve_points)));
+            return Err(Diagnostic::error(
+                ErrorKind::Limit,
+                e.span,
+                format!(
+                    "{what} has {} points; the limit is {}",
+                    items.len(),
+                    self.opts.limits.max_curve_points
+                ),
+            ));
         }
         let mut pts = Vec::with_capacity(items.len());
         for it in items {
             match &it.kind {
                 ExprKind::Tuple(xy) if xy.len() == 2 => {
-                    pts.push((self.env.number(&xy[0], xk, what)?, self.env.number(&xy[1], yk, what)?));
+                    pts.push((
+                        self.env.number(&xy[0], xk, what)?,
+                        self.env.number(&xy[1], yk, what)?,
+                    ));
                 }
                 _ => {
-                    return Err(Diagnostic::error(ErrorKind::BadCurve, it.span, format!("a point of {what} must be (x, y)"))
-                        .with_hint("write points as (abscissa, force), separated by spaces"))
+                    return Err(Diagnostic::error(
+                        ErrorKind::BadCurve,
+                        it.span,
+                        format!("a point of {what} must be (x, y)"),
+                    )
+                    .with_hint("write points as (abscissa, force), separated by spaces"))
                 }
             }
         }
@@ -593,7 +784,9 @@ impl<'a> Builder<'a> {
         };
         if refs.len() != arity {
             let form = match k {
-                "res" | "fro" | "ref" | "but" | "lnl" => format!("{k} NAME END1 END2 parameters..."),
+                "res" | "fro" | "ref" | "but" | "lnl" => {
+                    format!("{k} NAME END1 END2 parameters...")
+                }
                 "enf" => "enf NAME TARGET signal=...".into(),
                 "sox" => "sox NAME MATERIAL".into(),
                 "sof" => "sof NAME INTERACTION".into(),
@@ -604,13 +797,21 @@ impl<'a> Builder<'a> {
             return Err(Diagnostic::error(
                 ErrorKind::Syntax,
                 at,
-                format!("`{k}` takes {arity} name{} before its parameters, not {}", if arity > 1 { "s" } else { "" }, refs.len()),
+                format!(
+                    "`{k}` takes {arity} name{} before its parameters, not {}",
+                    if arity > 1 { "s" } else { "" },
+                    refs.len()
+                ),
             )
             .with_hint(format!("write: {form}")));
         }
         let mut p = Params::new(params);
         let what = format!("`{k}`");
-        let name = if k == "init" { None } else { Some(self.plain_name(&refs[0])?) };
+        let name = if k == "init" {
+            None
+        } else {
+            Some(self.plain_name(&refs[0])?)
+        };
         let nm = || name.clone().map(|w| w.text).unwrap_or_default();
         match k {
             "mas" => {
@@ -633,7 +834,11 @@ impl<'a> Builder<'a> {
                 let tp = p.get("tau", &["decay"])?;
                 let (kk, zz) = if let Some(f) = fp {
                     if let Some(c) = kp.or(zp) {
-                        return Err(Diagnostic::error(ErrorKind::ConflictingParameter, c.key.span, "give a cel either K and Z or f and tau, not both"));
+                        return Err(Diagnostic::error(
+                            ErrorKind::ConflictingParameter,
+                            c.key.span,
+                            "give a cel either K and Z or f and tau, not both",
+                        ));
                     }
                     let freq = self.env.number(&f.value, Kind::Freq, "f")?;
                     if !(0.0..0.5).contains(&freq) {
@@ -643,7 +848,11 @@ impl<'a> Builder<'a> {
                         Some(t) => {
                             let v = self.env.number(&t.value, Kind::Time, "tau")?;
                             if !(v > 0.0) {
-                                return Err(Diagnostic::error(ErrorKind::OutOfRange, t.value.span, "the decay time tau must be > 0"));
+                                return Err(Diagnostic::error(
+                                    ErrorKind::OutOfRange,
+                                    t.value.span,
+                                    "the decay time tau must be > 0",
+                                ));
                             }
                             v
                         }
@@ -652,18 +861,39 @@ impl<'a> Builder<'a> {
                     cel_from_modal(m, freq, tau)
                 } else {
                     if let Some(t) = tp {
-                        return Err(Diagnostic::error(ErrorKind::ConflictingParameter, t.key.span, "`tau` goes with `f`")
-                            .with_hint("give the cel f=FREQ tau=TIME, or K and Z"));
+                        return Err(Diagnostic::error(
+                            ErrorKind::ConflictingParameter,
+                            t.key.span,
+                            "`tau` goes with `f`",
+                        )
+                        .with_hint("give the cel f=FREQ tau=TIME, or K and Z"));
                     }
-                    let kk = match kp { Some(x) => self.env.number(&x.value, Kind::Stiffness, "K")?, None => 0.0 };
-                    let zz = match zp { Some(x) => self.env.number(&x.value, Kind::Viscosity, "Z")?, None => 0.0 };
+                    let kk = match kp {
+                        Some(x) => self.env.number(&x.value, Kind::Stiffness, "K")?,
+                        None => 0.0,
+                    };
+                    let zz = match zp {
+                        Some(x) => self.env.number(&x.value, Kind::Viscosity, "Z")?,
+                        None => 0.0,
+                    };
                     (kk, zz)
                 };
                 let x0 = self.num(&mut p, "X0", &[], Kind::Plain, Some(0.0))?;
                 let v0 = self.num(&mut p, "V0", &[], Kind::Velocity, Some(0.0))?;
                 let r = self.num(&mut p, "R", &[], Kind::Plain, Some(0.0))?;
                 p.finish(&what)?;
-                self.add_mat(nm(), Material::Cel { m, k: kk, z: zz, x0, v0, r }, span)?;
+                self.add_mat(
+                    nm(),
+                    Material::Cel {
+                        m,
+                        k: kk,
+                        z: zz,
+                        x0,
+                        v0,
+                        r,
+                    },
+                    span,
+                )?;
             }
             "enx" => {
                 let signal = self.signal(&mut p, span)?;
@@ -674,14 +904,25 @@ impl<'a> Builder<'a> {
                 let a = self.material(&refs[1], "end 1")?;
                 let b = self.material(&refs[2], "end 2")?;
                 if a == b {
-                    return Err(Diagnostic::error(ErrorKind::WrongKind, refs[2].span, "an interaction must join two different modules"));
+                    return Err(Diagnostic::error(
+                        ErrorKind::WrongKind,
+                        refs[2].span,
+                        "an interaction must join two different modules",
+                    ));
                 }
                 let law = match k {
-                    "res" => Interaction::Res { k: self.req(&mut p, "K", Kind::Stiffness, span)? },
-                    "fro" => Interaction::Fro { z: self.req(&mut p, "Z", Kind::Viscosity, span)? },
+                    "res" => Interaction::Res {
+                        k: self.req(&mut p, "K", Kind::Stiffness, span)?,
+                    },
+                    "fro" => Interaction::Fro {
+                        z: self.req(&mut p, "Z", Kind::Viscosity, span)?,
+                    },
                     "ref" => {
                         let kk = self.req(&mut p, "K", Kind::Stiffness, span)?;
-                        Interaction::Ref { k: kk, z: self.num(&mut p, "Z", &[], Kind::Viscosity, Some(0.0))? }
+                        Interaction::Ref {
+                            k: kk,
+                            z: self.num(&mut p, "Z", &[], Kind::Viscosity, Some(0.0))?,
+                        }
                     }
                     "but" => {
                         let kk = self.num(&mut p, "K", &[], Kind::Stiffness, Some(0.0))?;
@@ -690,8 +931,14 @@ impl<'a> Builder<'a> {
                         Interaction::But { k: kk, z: zz, s }
                     }
                     _ => {
-                        let lk = match p.get("LK", &[])? { Some(x) => self.curve(&x.value, Kind::Plain, Kind::Plain, "LK")?, None => Curve::zero() };
-                        let lz = match p.get("LZ", &[])? { Some(x) => self.curve(&x.value, Kind::Velocity, Kind::Plain, "LZ")?, None => Curve::zero() };
+                        let lk = match p.get("LK", &[])? {
+                            Some(x) => self.curve(&x.value, Kind::Plain, Kind::Plain, "LK")?,
+                            None => Curve::zero(),
+                        };
+                        let lz = match p.get("LZ", &[])? {
+                            Some(x) => self.curve(&x.value, Kind::Velocity, Kind::Plain, "LZ")?,
+                            None => Curve::zero(),
+                        };
                         if lk.is_empty() && lz.is_empty() {
                             return Err(Diagnostic::error(ErrorKind::MissingParameter, span, "an lnl needs a curve LK (force over elongation) or LZ (force over velocity)"));
                         }
@@ -699,9 +946,20 @@ impl<'a> Builder<'a> {
                     }
                 };
                 p.finish(&what)?;
-                let (ma, mb) = (&self.net.materials[a.index()], &self.net.materials[b.index()]);
+                let (ma, mb) = (
+                    &self.net.materials[a.index()],
+                    &self.net.materials[b.index()],
+                );
                 if !ma.is_mobile() && !mb.is_mobile() {
-                    self.diags.push(Diagnostic::warning(span, format!("`{}` joins two modules that cannot move ({} and {}): it does nothing", nm(), ma.kind(), mb.kind())));
+                    self.diags.push(Diagnostic::warning(
+                        span,
+                        format!(
+                            "`{}` joins two modules that cannot move ({} and {}): it does nothing",
+                            nm(),
+                            ma.kind(),
+                            mb.kind()
+                        ),
+                    ));
                 }
                 self.add_link(nm(), law, a, b, span)?;
             }
@@ -710,7 +968,10 @@ impl<'a> Builder<'a> {
                 let signal = self.signal(&mut p, span)?;
                 p.finish(&what)?;
                 if !self.net.materials[target.index()].is_mobile() {
-                    self.diags.push(Diagnostic::warning(refs[1].span, "a force on a sol or enx is discarded: it cannot move it"));
+                    self.diags.push(Diagnostic::warning(
+                        refs[1].span,
+                        "a force on a sol or enx is discarded: it cannot move it",
+                    ));
                 }
                 self.declare(nm(), Entity::Force, span)?;
                 self.net.add_force(target, signal);
@@ -731,8 +992,14 @@ impl<'a> Builder<'a> {
             }
             "init" => {
                 let target = self.material(&refs[0], "`init`")?;
-                let x0 = p.get("X0", &[])?.map(|x| self.env.number(&x.value, Kind::Plain, "X0")).transpose()?;
-                let v0 = p.get("V0", &[])?.map(|x| self.env.number(&x.value, Kind::Velocity, "V0")).transpose()?;
+                let x0 = p
+                    .get("X0", &[])?
+                    .map(|x| self.env.number(&x.value, Kind::Plain, "X0"))
+                    .transpose()?;
+                let v0 = p
+                    .get("V0", &[])?
+                    .map(|x| self.env.number(&x.value, Kind::Velocity, "V0"))
+                    .transpose()?;
                 p.finish(&what)?;
                 match &mut self.net.materials[target.index()] {
                     Material::Mas { x0: px, v0: pv, .. } | Material::Cel { x0: px, v0: pv, .. } => {
@@ -749,8 +1016,12 @@ impl<'a> Builder<'a> {
                         }
                     }
                     m => {
-                        return Err(Diagnostic::error(ErrorKind::WrongKind, refs[0].span, format!("`init` cannot set the state of a {}", m.kind()))
-                            .with_hint("init sets X0 and V0 of a mas or cel (and X0 of a sol)"))
+                        return Err(Diagnostic::error(
+                            ErrorKind::WrongKind,
+                            refs[0].span,
+                            format!("`init` cannot set the state of a {}", m.kind()),
+                        )
+                        .with_hint("init sets X0 and V0 of a mas or cel (and X0 of a sol)"))
                     }
                 }
             }
@@ -764,8 +1035,12 @@ impl<'a> Builder<'a> {
     fn req(&self, p: &mut Params, key: &'static str, kind: Kind, span: Span) -> R<f64> {
         match p.get(key, &[])? {
             Some(x) => self.env.number(&x.value, kind, key),
-            None => Err(Diagnostic::error(ErrorKind::MissingParameter, span, format!("`{key}` is required"))
-                .with_hint(format!("add {key}=VALUE"))),
+            None => Err(Diagnostic::error(
+                ErrorKind::MissingParameter,
+                span,
+                format!("`{key}` is required"),
+            )
+            .with_hint(format!("add {key}=VALUE"))),
         }
     }
 
@@ -778,7 +1053,11 @@ impl<'a> Builder<'a> {
             .into_iter()
             .map(|it| match &it.kind {
                 ExprKind::Name(n) => Ok((n.to_ascii_lowercase(), it.span)),
-                _ => Err(Diagnostic::error(ErrorKind::Syntax, it.span, "expected a word (fixed or free)")),
+                _ => Err(Diagnostic::error(
+                    ErrorKind::Syntax,
+                    it.span,
+                    "expected a word (fixed or free)",
+                )),
             })
             .collect()
     }
@@ -787,23 +1066,43 @@ impl<'a> Builder<'a> {
         match w.0.as_str() {
             "fixed" => Ok(true),
             "free" => Ok(false),
-            other => Err(Diagnostic::error(ErrorKind::OutOfRange, w.1, format!("`{other}` is not an end condition"))
-                .with_hint(did_you_mean(other, ["fixed", "free"]).unwrap_or_else(|| "use fixed or free".into()))),
+            other => Err(Diagnostic::error(
+                ErrorKind::OutOfRange,
+                w.1,
+                format!("`{other}` is not an end condition"),
+            )
+            .with_hint(
+                did_you_mean(other, ["fixed", "free"])
+                    .unwrap_or_else(|| "use fixed or free".into()),
+            )),
         }
     }
 
     fn count(&self, p: &mut Params, key: &'static str, span: Span) -> R<usize> {
         let param = p.get(key, &[])?.ok_or_else(|| {
-            Diagnostic::error(ErrorKind::MissingParameter, span, format!("`{key}` is required")).with_hint(format!("add {key}=NUMBER"))
+            Diagnostic::error(
+                ErrorKind::MissingParameter,
+                span,
+                format!("`{key}` is required"),
+            )
+            .with_hint(format!("add {key}=NUMBER"))
         })?;
         let v = self.env.number(&param.value, Kind::Plain, key)?;
         if v.fract() != 0.0 || v < 1.0 {
-            return Err(Diagnostic::error(ErrorKind::OutOfRange, param.value.span, format!("`{key}` must be a whole number >= 1, not {v}")));
+            return Err(Diagnostic::error(
+                ErrorKind::OutOfRange,
+                param.value.span,
+                format!("`{key}` must be a whole number >= 1, not {v}"),
+            ));
         }
         let max = self.opts.limits.max_modules as f64;
         if v > max {
-            return Err(Diagnostic::error(ErrorKind::Limit, param.value.span, format!("`{key}` = {v} is above the module limit of {max}"))
-                .with_hint("raise the limit with --max-modules"));
+            return Err(Diagnostic::error(
+                ErrorKind::Limit,
+                param.value.span,
+                format!("`{key}` = {v} is above the module limit of {max}"),
+            )
+            .with_hint("raise the limit with --max-modules"));
         }
         Ok(v as usize)
     }
@@ -811,8 +1110,15 @@ impl<'a> Builder<'a> {
     fn budget(&self, extra: usize, span: Span) -> R<()> {
         let max = self.opts.limits.max_modules;
         if self.names.len().saturating_add(extra) > max {
-            return Err(Diagnostic::error(ErrorKind::Limit, span, format!("this would make {} modules; the limit is {max}", self.names.len().saturating_add(extra)))
-                .with_hint("raise the limit with --max-modules"));
+            return Err(Diagnostic::error(
+                ErrorKind::Limit,
+                span,
+                format!(
+                    "this would make {} modules; the limit is {max}",
+                    self.names.len().saturating_add(extra)
+                ),
+            )
+            .with_hint("raise the limit with --max-modules"));
         }
         Ok(())
     }
@@ -828,7 +1134,13 @@ impl<'a> Builder<'a> {
                 match w.as_slice() {
                     [one] => (self.end_kind(one)?, self.end_kind(one)?),
                     [a, b] => (self.end_kind(a)?, self.end_kind(b)?),
-                    _ => return Err(Diagnostic::error(ErrorKind::Syntax, x.value.span, "ends takes one or two words: ends=fixed,free")),
+                    _ => {
+                        return Err(Diagnostic::error(
+                            ErrorKind::Syntax,
+                            x.value.span,
+                            "ends takes one or two words: ends=fixed,free",
+                        ))
+                    }
                 }
             }
             None => (true, true),
@@ -838,11 +1150,21 @@ impl<'a> Builder<'a> {
                 ExprKind::Tuple(t) if t.len() == 2 => {
                     let at = self.env.number(&t[0], Kind::Plain, "pluck")?;
                     if at.fract() != 0.0 || at < 0.0 || at >= n as f64 {
-                        return Err(Diagnostic::error(ErrorKind::OutOfRange, t[0].span, format!("the plucked mass must be one of 0..{}", n - 1)));
+                        return Err(Diagnostic::error(
+                            ErrorKind::OutOfRange,
+                            t[0].span,
+                            format!("the plucked mass must be one of 0..{}", n - 1),
+                        ));
                     }
                     Some((at as usize, self.env.number(&t[1], Kind::Plain, "pluck")?))
                 }
-                _ => return Err(Diagnostic::error(ErrorKind::Syntax, x.value.span, "pluck=(INDEX, AMPLITUDE)")),
+                _ => {
+                    return Err(Diagnostic::error(
+                        ErrorKind::Syntax,
+                        x.value.span,
+                        "pluck=(INDEX, AMPLITUDE)",
+                    ))
+                }
             },
             None => None,
         };
@@ -856,7 +1178,11 @@ impl<'a> Builder<'a> {
                 Some((at, amp)) => amp * (n - i) as f64 / (n - at) as f64,
                 None => 0.0,
             };
-            ids.push(self.add_mat(format!("{name}[{i}]"), Material::Mas { m, x0, v0: 0.0 }, span)?);
+            ids.push(self.add_mat(
+                format!("{name}[{i}]"),
+                Material::Mas { m, x0, v0: 0.0 },
+                span,
+            )?);
         }
         let law = Interaction::Ref { k, z };
         if ends.0 {
@@ -864,7 +1190,13 @@ impl<'a> Builder<'a> {
             self.add_link(format!("{name}.l[0]"), law.clone(), g, ids[0], span)?;
         }
         for i in 1..n {
-            self.add_link(format!("{name}.l[{i}]"), law.clone(), ids[i - 1], ids[i], span)?;
+            self.add_link(
+                format!("{name}.l[{i}]"),
+                law.clone(),
+                ids[i - 1],
+                ids[i],
+                span,
+            )?;
         }
         if ends.1 {
             let g = self.add_mat(format!("{name}.right"), Material::Sol { x0: 0.0 }, span)?;
@@ -884,31 +1216,57 @@ impl<'a> Builder<'a> {
                 let w = self.words(&x.value)?;
                 match w.as_slice() {
                     [one] => self.end_kind(one)?,
-                    _ => return Err(Diagnostic::error(ErrorKind::Syntax, x.value.span, "border takes one word: fixed or free")),
+                    _ => {
+                        return Err(Diagnostic::error(
+                            ErrorKind::Syntax,
+                            x.value.span,
+                            "border takes one word: fixed or free",
+                        ))
+                    }
                 }
             }
             None => true,
         };
         p.finish("`membrane`")?;
-        let masses = rows.checked_mul(cols).unwrap_or(usize::MAX);
+        let masses = rows.saturating_mul(cols);
         self.budget(masses.saturating_mul(4), span)?;
         self.declare(name.clone(), Entity::Group("membrane"), span)?;
         let mut ids = Vec::with_capacity(masses);
         for r in 0..rows {
             for c in 0..cols {
-                ids.push(self.add_mat(format!("{name}[{r},{c}]"), Material::Mas { m, x0: 0.0, v0: 0.0 }, span)?);
+                ids.push(self.add_mat(
+                    format!("{name}[{r},{c}]"),
+                    Material::Mas {
+                        m,
+                        x0: 0.0,
+                        v0: 0.0,
+                    },
+                    span,
+                )?);
             }
         }
         let at = |r: usize, c: usize| ids[r * cols + c];
         let law = Interaction::Ref { k, z };
         for r in 0..rows {
             for c in 0..cols.saturating_sub(1) {
-                self.add_link(format!("{name}.h[{r},{c}]"), law.clone(), at(r, c), at(r, c + 1), span)?;
+                self.add_link(
+                    format!("{name}.h[{r},{c}]"),
+                    law.clone(),
+                    at(r, c),
+                    at(r, c + 1),
+                    span,
+                )?;
             }
         }
         for r in 0..rows.saturating_sub(1) {
             for c in 0..cols {
-                self.add_link(format!("{name}.v[{r},{c}]"), law.clone(), at(r, c), at(r + 1, c), span)?;
+                self.add_link(
+                    format!("{name}.v[{r},{c}]"),
+                    law.clone(),
+                    at(r, c),
+                    at(r + 1, c),
+                    span,
+                )?;
             }
         }
         if fixed {
@@ -916,7 +1274,10 @@ impl<'a> Builder<'a> {
             let mut b = 0;
             for r in 0..rows {
                 for c in 0..cols {
-                    let missing = usize::from(r == 0) + usize::from(r == rows - 1) + usize::from(c == 0) + usize::from(c == cols - 1);
+                    let missing = usize::from(r == 0)
+                        + usize::from(r == rows - 1)
+                        + usize::from(c == 0)
+                        + usize::from(c == cols - 1);
                     for _ in 0..missing {
                         self.add_link(format!("{name}.b[{b}]"), law.clone(), g, at(r, c), span)?;
                         b += 1;
@@ -976,5 +1337,9 @@ pub fn cel_modal(m: f64, k: f64, z: f64) -> Option<(f64, f64)> {
 /// A value written as text on the command line, evaluated at `fs` (used for `--set`).
 pub fn eval_text(text: &str, fs: f64) -> Result<Value, Diagnostic> {
     let e = syntax::parse_expr(text)?;
-    Env { fs, lets: HashMap::new() }.eval(&e)
+    Env {
+        fs,
+        lets: HashMap::new(),
+    }
+    .eval(&e)
 }

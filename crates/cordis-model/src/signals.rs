@@ -10,26 +10,51 @@ use crate::eval::{Env, Kind};
 use crate::model::Limits;
 use crate::syntax::{Arg, Expr, ExprKind};
 
-const GENERATORS: &[&str] = &["impulse", "step", "sine", "noise", "env", "file", "constant"];
+const GENERATORS: &[&str] = &[
+    "impulse", "step", "sine", "noise", "env", "file", "constant",
+];
 
 type R<T> = Result<T, Diagnostic>;
 
 /// Binds the arguments of a call to parameter names (positional in order, or `key=value`).
-fn bind<'e>(name: &str, args: &'e [Arg], spec: &[&str], span: crate::Span) -> R<Vec<Option<&'e Expr>>> {
+fn bind<'e>(
+    name: &str,
+    args: &'e [Arg],
+    spec: &[&str],
+    span: crate::Span,
+) -> R<Vec<Option<&'e Expr>>> {
     let mut out: Vec<Option<&Expr>> = vec![None; spec.len()];
     for (i, a) in args.iter().enumerate() {
         let slot = match &a.key {
-            Some(k) => spec.iter().position(|s| s.eq_ignore_ascii_case(&k.text)).ok_or_else(|| {
-                Diagnostic::error(ErrorKind::UnknownParameter, k.span, format!("`{name}` has no argument `{}`", k.text))
-                    .with_hint(did_you_mean(&k.text, spec.iter().copied()).unwrap_or_else(|| format!("`{name}` takes {}", spec.join(", "))))
-            })?,
+            Some(k) => spec
+                .iter()
+                .position(|s| s.eq_ignore_ascii_case(&k.text))
+                .ok_or_else(|| {
+                    Diagnostic::error(
+                        ErrorKind::UnknownParameter,
+                        k.span,
+                        format!("`{name}` has no argument `{}`", k.text),
+                    )
+                    .with_hint(
+                        did_you_mean(&k.text, spec.iter().copied())
+                            .unwrap_or_else(|| format!("`{name}` takes {}", spec.join(", "))),
+                    )
+                })?,
             None if i < spec.len() => i,
             None => {
-                return Err(Diagnostic::error(ErrorKind::Syntax, a.value.span, format!("`{name}` takes at most {} arguments", spec.len())))
+                return Err(Diagnostic::error(
+                    ErrorKind::Syntax,
+                    a.value.span,
+                    format!("`{name}` takes at most {} arguments", spec.len()),
+                ))
             }
         };
         if out[slot].is_some() {
-            return Err(Diagnostic::error(ErrorKind::ConflictingParameter, a.value.span, format!("`{}` is given twice", spec[slot])));
+            return Err(Diagnostic::error(
+                ErrorKind::ConflictingParameter,
+                a.value.span,
+                format!("`{}` is given twice", spec[slot]),
+            ));
         }
         out[slot] = Some(&a.value);
     }
@@ -41,7 +66,11 @@ fn sample_index(env: &Env, e: Option<&Expr>) -> R<u64> {
     let Some(e) = e else { return Ok(0) };
     let v = env.number(e, Kind::Time, "at")?;
     if v < 0.0 {
-        return Err(Diagnostic::error(ErrorKind::OutOfRange, e.span, "`at` must not be negative"));
+        return Err(Diagnostic::error(
+            ErrorKind::OutOfRange,
+            e.span,
+            "`at` must not be negative",
+        ));
     }
     Ok(v.round() as u64)
 }
@@ -71,7 +100,12 @@ pub fn build(env: &Env, e: &Expr, model_path: &Path, limits: &Limits) -> R<Signa
         "sine" => {
             let a = bind(&lower, args, &["freq", "amp", "phase"], e.span)?;
             let fe = a[0].ok_or_else(|| {
-                Diagnostic::error(ErrorKind::MissingParameter, e.span, "`sine` needs a frequency").with_hint("sine(freq=2Hz, amp=1)")
+                Diagnostic::error(
+                    ErrorKind::MissingParameter,
+                    e.span,
+                    "`sine` needs a frequency",
+                )
+                .with_hint("sine(freq=2Hz, amp=1)")
             })?;
             let freq = env.number(fe, Kind::Freq, "freq")?;
             if !(0.0..0.5).contains(&freq) {
@@ -82,15 +116,26 @@ pub fn build(env: &Env, e: &Expr, model_path: &Path, limits: &Limits) -> R<Signa
                 ))
                 .with_hint(format!("a bare number is in cycles per sample; for hertz write {freq}Hz")));
             }
-            Signal::Sine { freq, amp: opt(env, a[1], Kind::Mixed, "amp", 1.0)?, phase: opt(env, a[2], Kind::Plain, "phase", 0.0)? }
+            Signal::Sine {
+                freq,
+                amp: opt(env, a[1], Kind::Mixed, "amp", 1.0)?,
+                phase: opt(env, a[2], Kind::Plain, "phase", 0.0)?,
+            }
         }
         "noise" => {
             let a = bind(&lower, args, &["seed", "amp"], e.span)?;
             let seed = opt(env, a[0], Kind::Plain, "seed", 0.0)?;
             if seed.fract() != 0.0 || !(0.0..=9.0e15).contains(&seed) {
-                return Err(Diagnostic::error(ErrorKind::OutOfRange, a[0].map_or(e.span, |x| x.span), "the seed must be a whole number >= 0"));
+                return Err(Diagnostic::error(
+                    ErrorKind::OutOfRange,
+                    a[0].map_or(e.span, |x| x.span),
+                    "the seed must be a whole number >= 0",
+                ));
             }
-            Signal::Noise { seed: seed as u64, amp: opt(env, a[1], Kind::Mixed, "amp", 1.0)? }
+            Signal::Noise {
+                seed: seed as u64,
+                amp: opt(env, a[1], Kind::Mixed, "amp", 1.0)?,
+            }
         }
         "constant" => {
             let a = bind(&lower, args, &["value"], e.span)?;
@@ -99,55 +144,108 @@ pub fn build(env: &Env, e: &Expr, model_path: &Path, limits: &Limits) -> R<Signa
         "env" => {
             let a = bind(&lower, args, &["points", "amp"], e.span)?;
             let pe = a[0].ok_or_else(|| {
-                Diagnostic::error(ErrorKind::MissingParameter, e.span, "`env` needs its points").with_hint("env([(0, 0) (10ms, 1) (1s, 0)])")
+                Diagnostic::error(
+                    ErrorKind::MissingParameter,
+                    e.span,
+                    "`env` needs its points",
+                )
+                .with_hint("env([(0, 0) (10ms, 1) (1s, 0)])")
             })?;
             let ExprKind::Curve(items) = &pe.kind else {
-                return Err(Diagnostic::error(ErrorKind::BadCurve, pe.span, "the points of `env` are a curve: [(time, value) ...]"));
+                return Err(Diagnostic::error(
+                    ErrorKind::BadCurve,
+                    pe.span,
+                    "the points of `env` are a curve: [(time, value) ...]",
+                ));
             };
             if items.len() > limits.max_curve_points {
-                return Err(Diagnostic::error(ErrorKind::Limit, pe.span, format!("more than {} points", limits.max_curve_points)));
+                return Err(Diagnostic::error(
+                    ErrorKind::Limit,
+                    pe.span,
+                    format!("more than {} points", limits.max_curve_points),
+                ));
             }
             let amp = opt(env, a[1], Kind::Mixed, "amp", 1.0)?;
             let mut pts = Vec::new();
             for it in items {
                 match &it.kind {
-                    ExprKind::Tuple(xy) if xy.len() == 2 => {
-                        pts.push((env.number(&xy[0], Kind::Time, "env time")?, amp * env.number(&xy[1], Kind::Mixed, "env value")?))
+                    ExprKind::Tuple(xy) if xy.len() == 2 => pts.push((
+                        env.number(&xy[0], Kind::Time, "env time")?,
+                        amp * env.number(&xy[1], Kind::Mixed, "env value")?,
+                    )),
+                    _ => {
+                        return Err(Diagnostic::error(
+                            ErrorKind::BadCurve,
+                            it.span,
+                            "a point of `env` is (time, value)",
+                        ))
                     }
-                    _ => return Err(Diagnostic::error(ErrorKind::BadCurve, it.span, "a point of `env` is (time, value)")),
                 }
             }
             let c = Curve::new(&pts).map_err(|err| {
-                Diagnostic::error(ErrorKind::BadCurve, pe.span, format!("env: {err}")).with_hint("list the points in time order")
+                Diagnostic::error(ErrorKind::BadCurve, pe.span, format!("env: {err}"))
+                    .with_hint("list the points in time order")
             })?;
             Signal::Envelope(c)
         }
         "file" => {
             let a = bind(&lower, args, &["path", "channel", "gain"], e.span)?;
             let pe = a[0].ok_or_else(|| {
-                Diagnostic::error(ErrorKind::MissingParameter, e.span, "`file` needs a path").with_hint("file(\"force.wav\")")
+                Diagnostic::error(ErrorKind::MissingParameter, e.span, "`file` needs a path")
+                    .with_hint("file(\"force.wav\")")
             })?;
             let ExprKind::Str(rel) = &pe.kind else {
-                return Err(Diagnostic::error(ErrorKind::Syntax, pe.span, "the path of `file` is quoted text").with_hint("file(\"force.wav\")"));
+                return Err(Diagnostic::error(
+                    ErrorKind::Syntax,
+                    pe.span,
+                    "the path of `file` is quoted text",
+                )
+                .with_hint("file(\"force.wav\")"));
             };
             let channel = opt(env, a[1], Kind::Plain, "channel", 0.0)?;
             if channel.fract() != 0.0 || channel < 0.0 {
-                return Err(Diagnostic::error(ErrorKind::OutOfRange, a[1].map_or(e.span, |x| x.span), "the channel must be a whole number >= 0"));
+                return Err(Diagnostic::error(
+                    ErrorKind::OutOfRange,
+                    a[1].map_or(e.span, |x| x.span),
+                    "the channel must be a whole number >= 0",
+                ));
             }
             let gain = opt(env, a[2], Kind::Mixed, "gain", 1.0)?;
             let path = resolve(model_path, rel);
             let max_samples = (limits.max_duration_s * env.fs).ceil() as usize;
-            let data = read_file(&path, channel as usize, env.fs, max_samples)
-                .map_err(|(msg, hint)| Diagnostic::error(ErrorKind::SignalFile, pe.span, format!("{}: {msg}", path.display())).with_hint_opt(hint))?;
-            Signal::Samples { data: Arc::from(data), gain }
+            let data = read_file(&path, channel as usize, env.fs, max_samples).map_err(
+                |(msg, hint)| {
+                    Diagnostic::error(
+                        ErrorKind::SignalFile,
+                        pe.span,
+                        format!("{}: {msg}", path.display()),
+                    )
+                    .with_hint_opt(hint)
+                },
+            )?;
+            Signal::Samples {
+                data: Arc::from(data),
+                gain,
+            }
         }
         _ => {
-            return Err(Diagnostic::error(ErrorKind::UnknownName, name.span, format!("unknown signal `{}`", name.text))
-                .with_hint(did_you_mean(&name.text, GENERATORS.iter().copied()).unwrap_or_else(|| format!("signals are {}", GENERATORS.join(", ")))))
+            return Err(Diagnostic::error(
+                ErrorKind::UnknownName,
+                name.span,
+                format!("unknown signal `{}`", name.text),
+            )
+            .with_hint(
+                did_you_mean(&name.text, GENERATORS.iter().copied())
+                    .unwrap_or_else(|| format!("signals are {}", GENERATORS.join(", "))),
+            ))
         }
     };
     if !s.is_finite() {
-        return Err(Diagnostic::error(ErrorKind::NonFinite, e.span, "this signal has non-finite values"));
+        return Err(Diagnostic::error(
+            ErrorKind::NonFinite,
+            e.span,
+            "this signal has non-finite values",
+        ));
     }
     Ok(s)
 }
@@ -164,30 +262,50 @@ fn resolve(model_path: &Path, rel: &str) -> PathBuf {
 type FileResult = Result<Vec<f64>, (String, Option<String>)>;
 
 fn read_file(path: &Path, channel: usize, fs: f64, max_samples: usize) -> FileResult {
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
     match ext.as_str() {
         "wav" => read_wav(path, channel, fs, max_samples),
         "csv" | "txt" => read_csv(path, channel, max_samples),
-        _ => Err((format!("cannot read `.{ext}` files"), Some("signal files are .wav or .csv".into()))),
+        _ => Err((
+            format!("cannot read `.{ext}` files"),
+            Some("signal files are .wav or .csv".into()),
+        )),
     }
 }
 
 fn read_wav(path: &Path, channel: usize, fs: f64, max_samples: usize) -> FileResult {
-    let reader = hound::WavReader::open(path).map_err(|e| (format!("cannot read it as WAV: {e}"), None))?;
+    let reader =
+        hound::WavReader::open(path).map_err(|e| (format!("cannot read it as WAV: {e}"), None))?;
     let spec = reader.spec();
     if f64::from(spec.sample_rate) != fs {
         return Err((
-            format!("its sample rate is {} Hz but the model runs at {fs} Hz", spec.sample_rate),
-            Some(format!("resample the file to {fs} Hz, or set `rate {}` in the model", spec.sample_rate)),
+            format!(
+                "its sample rate is {} Hz but the model runs at {fs} Hz",
+                spec.sample_rate
+            ),
+            Some(format!(
+                "resample the file to {fs} Hz, or set `rate {}` in the model",
+                spec.sample_rate
+            )),
         ));
     }
     let chans = usize::from(spec.channels);
     if channel >= chans {
-        return Err((format!("it has {chans} channel(s); channel={channel} does not exist"), Some(format!("channels are numbered 0..{}", chans - 1))));
+        return Err((
+            format!("it has {chans} channel(s); channel={channel} does not exist"),
+            Some(format!("channels are numbered 0..{}", chans - 1)),
+        ));
     }
     let frames = reader.duration() as usize;
     if frames > max_samples {
-        return Err((format!("it has {frames} samples, more than the longest render allows ({max_samples})"), Some("raise --max-duration".into())));
+        return Err((
+            format!("it has {frames} samples, more than the longest render allows ({max_samples})"),
+            Some("raise --max-duration".into()),
+        ));
     }
     let mut out = Vec::with_capacity(frames);
     let err = |e: hound::Error| (format!("a sample cannot be read: {e}"), None);
@@ -226,16 +344,31 @@ fn read_csv(path: &Path, column: usize, max_samples: usize) -> FileResult {
         }
         let fields: Vec<&str> = line.split([',', ';', '\t']).map(str::trim).collect();
         let Some(field) = fields.get(column) else {
-            return Err((format!("line {} has {} column(s); column {column} does not exist", n + 1, fields.len()), Some("pick the column with channel=N (from 0)".into())));
+            return Err((
+                format!(
+                    "line {} has {} column(s); column {column} does not exist",
+                    n + 1,
+                    fields.len()
+                ),
+                Some("pick the column with channel=N (from 0)".into()),
+            ));
         };
         match field.parse::<f64>() {
             Ok(v) if v.is_finite() => out.push(v),
             Ok(_) => return Err((format!("line {}: `{field}` is not finite", n + 1), None)),
             Err(_) if out.is_empty() && n == 0 => continue, // a header line
-            Err(_) => return Err((format!("line {}: `{field}` is not a number", n + 1), Some("one number per line (or per row, in the chosen column)".into()))),
+            Err(_) => {
+                return Err((
+                    format!("line {}: `{field}` is not a number", n + 1),
+                    Some("one number per line (or per row, in the chosen column)".into()),
+                ))
+            }
         }
         if out.len() > max_samples {
-            return Err((format!("it has more than {max_samples} samples, the longest render allowed"), Some("raise --max-duration".into())));
+            return Err((
+                format!("it has more than {max_samples} samples, the longest render allowed"),
+                Some("raise --max-duration".into()),
+            ));
         }
     }
     Ok(out)

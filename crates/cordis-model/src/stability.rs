@@ -119,7 +119,9 @@ pub fn check(model: &Model) -> StabilityReport {
     }
     // Power iteration on S = M^-1/2 K M^-1/2, shifted by the bound so the largest algebraic
     // eigenvalue dominates even with negative stiffnesses.
-    let isq: Vec<f64> = (0..n).map(|i| if mobile[i] { 1.0 / mass[i].sqrt() } else { 0.0 }).collect();
+    let isq: Vec<f64> = (0..n)
+        .map(|i| if mobile[i] { 1.0 / mass[i].sqrt() } else { 0.0 })
+        .collect();
     let apply = |v: &[f64], out: &mut [f64]| {
         for i in 0..n {
             out[i] = diag[i] * isq[i] * isq[i] * v[i];
@@ -130,7 +132,15 @@ pub fn check(model: &Model) -> StabilityReport {
             out[b] -= s * v[a];
         }
     };
-    let mut v: Vec<f64> = (0..n).map(|i| if mobile[i] { 1.0 + ((i * 7919) % 101) as f64 / 101.0 } else { 0.0 }).collect();
+    let mut v: Vec<f64> = (0..n)
+        .map(|i| {
+            if mobile[i] {
+                1.0 + ((i * 7919) % 101) as f64 / 101.0
+            } else {
+                0.0
+            }
+        })
+        .collect();
     let mut w = vec![0.0; n];
     let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
     let mut lambda = 0.0;
@@ -166,11 +176,24 @@ pub fn check(model: &Model) -> StabilityReport {
         let peak = v.iter().map(|x| x.abs()).fold(0.0, f64::max);
         let mut idx: Vec<usize> = (0..n).filter(|&i| mobile[i] && row[i] >= 4.0).collect();
         if idx.is_empty() {
-            idx = (0..n).filter(|&i| mobile[i] && v[i].abs() >= 0.5 * peak).collect();
+            idx = (0..n)
+                .filter(|&i| mobile[i] && v[i].abs() >= 0.5 * peak)
+                .collect();
         }
         idx.sort_by(|&a, &b| row[b].total_cmp(&row[a]));
-        offenders = idx.into_iter().take(8).map(|i| (model.materials[i].name.clone(), row[i])).collect();
+        offenders = idx
+            .into_iter()
+            .take(8)
+            .map(|i| (model.materials[i].name.clone(), row[i]))
+            .collect();
     }
     let stable = lambda < 4.0 && cels.iter().all(|c| c.stable);
-    StabilityReport { cels, lambda_max: lambda, lambda_bound: bound, offenders, includes_nonlinear, stable }
+    StabilityReport {
+        cels,
+        lambda_max: lambda,
+        lambda_bound: bound,
+        offenders,
+        includes_nonlinear,
+        stable,
+    }
 }

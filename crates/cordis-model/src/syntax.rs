@@ -125,12 +125,14 @@ pub enum Statement {
 
 /// Statement keywords the language knows (for did-you-mean).
 pub const KEYWORDS: &[&str] = &[
-    "rate", "duration", "let", "mas", "sol", "cel", "enx", "res", "fro", "ref", "but", "lnl", "enf",
-    "sox", "sof", "string", "membrane", "init",
+    "rate", "duration", "let", "mas", "sol", "cel", "enx", "res", "fro", "ref", "but", "lnl",
+    "enf", "sox", "sof", "string", "membrane", "init",
 ];
 
 /// Units that may follow a number or a parenthesised expression.
-pub const UNITS: &[&str] = &["Hz", "kHz", "s", "ms", "us", "N/m", "Ns/m", "N.s/m", "m/s", "samples"];
+pub const UNITS: &[&str] = &[
+    "Hz", "kHz", "s", "ms", "us", "N/m", "Ns/m", "N.s/m", "m/s", "samples",
+];
 
 const MAX_DEPTH: usize = 64;
 
@@ -160,7 +162,12 @@ impl LineLexer<'_> {
     fn span(&self, start: usize, end: usize) -> Span {
         let col = self.text[..start].chars().count() + 1;
         let _ = self.line_start;
-        Span { start: self.base + start, end: self.base + end, line: self.line, col }
+        Span {
+            start: self.base + start,
+            end: self.base + end,
+            line: self.line,
+            col,
+        }
     }
 
     fn lex(&self) -> Result<Vec<Token>, Diagnostic> {
@@ -178,7 +185,9 @@ impl LineLexer<'_> {
             }
             let start = i;
             let after_close = matches!(toks.last(), Some(Token { tok: Tok::Sym(')'), span }) if span.end == self.base + i);
-            if c.is_ascii_digit() || (c == '.' && bytes.get(i + 1).is_some_and(|b| b.is_ascii_digit())) {
+            if c.is_ascii_digit()
+                || (c == '.' && bytes.get(i + 1).is_some_and(|b| b.is_ascii_digit()))
+            {
                 while i < bytes.len() && (bytes[i].is_ascii_digit() || bytes[i] == b'.') {
                     i += 1;
                 }
@@ -196,20 +205,33 @@ impl LineLexer<'_> {
                 }
                 let text = &self.text[start..i];
                 let v: f64 = text.parse().map_err(|_| {
-                    Diagnostic::error(ErrorKind::Syntax, self.span(start, i), format!("`{text}` is not a number"))
-                        .with_hint("numbers look like 12, 0.5, 1e-4 or 2.5E3")
+                    Diagnostic::error(
+                        ErrorKind::Syntax,
+                        self.span(start, i),
+                        format!("`{text}` is not a number"),
+                    )
+                    .with_hint("numbers look like 12, 0.5, 1e-4 or 2.5E3")
                 })?;
-                toks.push(Token { tok: Tok::Num(v), span: self.span(start, i) });
+                toks.push(Token {
+                    tok: Tok::Num(v),
+                    span: self.span(start, i),
+                });
                 if i < bytes.len() && bytes[i].is_ascii_alphabetic() {
                     let (u, end) = self.lex_unit(i)?;
-                    toks.push(Token { tok: Tok::Unit(u), span: self.span(i, end) });
+                    toks.push(Token {
+                        tok: Tok::Unit(u),
+                        span: self.span(i, end),
+                    });
                     i = end;
                 }
                 continue;
             }
             if after_close && c.is_ascii_alphabetic() {
                 let (u, end) = self.lex_unit(i)?;
-                toks.push(Token { tok: Tok::Unit(u), span: self.span(i, end) });
+                toks.push(Token {
+                    tok: Tok::Unit(u),
+                    span: self.span(i, end),
+                });
                 i = end;
                 continue;
             }
@@ -217,7 +239,10 @@ impl LineLexer<'_> {
                 while i < bytes.len() && (bytes[i].is_ascii_alphanumeric() || bytes[i] == b'_') {
                     i += 1;
                 }
-                toks.push(Token { tok: Tok::Ident(self.text[start..i].to_string()), span: self.span(start, i) });
+                toks.push(Token {
+                    tok: Tok::Ident(self.text[start..i].to_string()),
+                    span: self.span(start, i),
+                });
                 continue;
             }
             if c == '"' {
@@ -242,7 +267,10 @@ impl LineLexer<'_> {
                 continue;
             }
             if "=()[],+-*/^.".contains(c) {
-                toks.push(Token { tok: Tok::Sym(c), span: self.span(start, start + 1) });
+                toks.push(Token {
+                    tok: Tok::Sym(c),
+                    span: self.span(start, start + 1),
+                });
                 i += 1;
                 continue;
             }
@@ -280,12 +308,16 @@ impl LineLexer<'_> {
         let text = &self.text[start..i];
         match UNITS.iter().find(|u| u.eq_ignore_ascii_case(text)) {
             Some(u) => Ok((u.to_string(), i)),
-            None => Err(Diagnostic::error(ErrorKind::Syntax, self.span(start, i), format!("unknown unit `{text}`"))
-                .with_hint_opt(did_you_mean(text, UNITS.iter().copied()))
-                .with_hint_opt(Some(format!(
-                    "units are {}; put a space or an operator between a number and a name",
-                    UNITS.join(", ")
-                )))),
+            None => Err(Diagnostic::error(
+                ErrorKind::Syntax,
+                self.span(start, i),
+                format!("unknown unit `{text}`"),
+            )
+            .with_hint_opt(did_you_mean(text, UNITS.iter().copied()))
+            .with_hint_opt(Some(format!(
+                "units are {}; put a space or an operator between a number and a name",
+                UNITS.join(", ")
+            )))),
         }
     }
 }
@@ -298,7 +330,12 @@ pub fn parse(text: &str) -> (Vec<Statement>, Vec<Diagnostic>) {
     let mut base = 0;
     for (n, raw) in text.split_inclusive('\n').enumerate() {
         let line = raw.trim_end_matches(['\n', '\r']);
-        let lexer = LineLexer { text: line, base, line: n + 1, line_start: base };
+        let lexer = LineLexer {
+            text: line,
+            base,
+            line: n + 1,
+            line_start: base,
+        };
         let line_span = lexer.span(0, line.len());
         base += raw.len();
         let toks = match lexer.lex() {
@@ -311,7 +348,13 @@ pub fn parse(text: &str) -> (Vec<Statement>, Vec<Diagnostic>) {
         if toks.is_empty() {
             continue;
         }
-        let mut p = Parser { toks: &toks, pos: 0, depth: 0, eol: line_span };
+        let eol = lexer.span(line.len(), line.len());
+        let mut p = Parser {
+            toks: &toks,
+            pos: 0,
+            depth: 0,
+            eol,
+        };
         match p.statement(line_span) {
             Ok(s) => stmts.push(s),
             Err(e) => errors.push(e),
@@ -322,13 +365,27 @@ pub fn parse(text: &str) -> (Vec<Statement>, Vec<Diagnostic>) {
 
 /// Parses one expression (for `--set NAME=VALUE`, `--duration`, `--rate` on the command line).
 pub fn parse_expr(text: &str) -> Result<Expr, Diagnostic> {
-    let lexer = LineLexer { text, base: 0, line: 1, line_start: 0 };
+    let lexer = LineLexer {
+        text,
+        base: 0,
+        line: 1,
+        line_start: 0,
+    };
     let toks = lexer.lex()?;
     let eol = lexer.span(text.len(), text.len());
-    let mut p = Parser { toks: &toks, pos: 0, depth: 0, eol };
+    let mut p = Parser {
+        toks: &toks,
+        pos: 0,
+        depth: 0,
+        eol,
+    };
     let e = p.expr()?;
     if let Some(t) = p.peek() {
-        return Err(Diagnostic::error(ErrorKind::Syntax, t.span, "unexpected text after the value"));
+        return Err(Diagnostic::error(
+            ErrorKind::Syntax,
+            t.span,
+            "unexpected text after the value",
+        ));
     }
     Ok(e)
 }
@@ -354,7 +411,7 @@ impl Parser<'_> {
     }
 
     fn here(&self) -> Span {
-        self.peek().map_or(Span { start: self.eol.end, end: self.eol.end, ..self.eol }, |t| t.span)
+        self.peek().map_or(self.eol, |t| t.span)
     }
 
     fn prev_span(&self) -> Span {
@@ -372,15 +429,29 @@ impl Parser<'_> {
 
     fn unexpected(&self, what: &str) -> Diagnostic {
         match self.peek() {
-            Some(t) => Diagnostic::error(ErrorKind::Syntax, t.span, format!("expected {what}, found {}", describe(&t.tok))),
-            None => Diagnostic::error(ErrorKind::Syntax, self.here(), format!("expected {what}, found the end of the line")),
+            Some(t) => Diagnostic::error(
+                ErrorKind::Syntax,
+                t.span,
+                format!("expected {what}, found {}", describe(&t.tok)),
+            ),
+            None => Diagnostic::error(
+                ErrorKind::Syntax,
+                self.here(),
+                format!("expected {what}, found the end of the line"),
+            ),
         }
     }
 
     fn ident(&mut self, what: &str) -> Result<Word, Diagnostic> {
         match self.peek() {
-            Some(Token { tok: Tok::Ident(s), span }) => {
-                let w = Word { text: s.clone(), span: *span };
+            Some(Token {
+                tok: Tok::Ident(s),
+                span,
+            }) => {
+                let w = Word {
+                    text: s.clone(),
+                    span: *span,
+                };
                 self.pos += 1;
                 Ok(w)
             }
@@ -390,38 +461,65 @@ impl Parser<'_> {
 
     fn statement(&mut self, line: Span) -> Result<Statement, Diagnostic> {
         let kw = match self.peek() {
-            Some(Token { tok: Tok::Ident(_), .. }) => self.ident("a statement")?,
+            Some(Token {
+                tok: Tok::Ident(_), ..
+            }) => self.ident("a statement")?,
             _ => return Err(self.unexpected("a statement keyword (mas, ref, sox, ...)")),
         };
         let lower = kw.text.to_ascii_lowercase();
-        let keyword = Word { text: lower.clone(), span: kw.span };
+        let keyword = Word {
+            text: lower.clone(),
+            span: kw.span,
+        };
         let stmt = match lower.as_str() {
             "let" => {
                 let name = self.ident("a name after `let`")?;
                 self.expect_sym('=', "`=` after the name")?;
                 let value = self.expr()?;
-                Statement::Let { name, value, span: line }
+                Statement::Let {
+                    name,
+                    value,
+                    span: line,
+                }
             }
             "rate" | "duration" => {
                 let value = self.expr()?;
-                Statement::Setting { keyword, value, span: line }
+                Statement::Setting {
+                    keyword,
+                    value,
+                    span: line,
+                }
             }
             _ if KEYWORDS.contains(&lower.as_str()) => {
                 let mut refs = Vec::new();
-                while matches!(self.peek(), Some(Token { tok: Tok::Ident(_), .. })) && !self.peek_at_sym(1, '=') {
+                while matches!(
+                    self.peek(),
+                    Some(Token {
+                        tok: Tok::Ident(_),
+                        ..
+                    })
+                ) && !self.peek_at_sym(1, '=')
+                {
                     refs.push(self.reference()?);
                 }
                 let mut params = Vec::new();
                 while self.peek().is_some() {
                     let key = match self.peek() {
-                        Some(Token { tok: Tok::Ident(_), .. }) if self.peek_at_sym(1, '=') => self.ident("a parameter")?,
+                        Some(Token {
+                            tok: Tok::Ident(_), ..
+                        }) if self.peek_at_sym(1, '=') => self.ident("a parameter")?,
                         _ => return Err(self.unexpected("a parameter `key=value`")),
                     };
                     self.pos += 1; // '='
                     let value = self.param_value()?;
                     params.push(Param { key, value });
                 }
-                Statement::Module { keyword, refs, params, span: line }
+                Statement::Module {
+                    keyword,
+                    refs,
+                    params,
+                    span: line,
+                }
             }
             _ => {
                 return Err(Diagnostic::error(
@@ -429,14 +527,19 @@ impl Parser<'_> {
                     kw.span,
                     format!("unknown statement `{}`", kw.text),
                 )
-                .with_hint(did_you_mean(&kw.text, KEYWORDS.iter().copied()).unwrap_or_else(|| {
-                    format!("statements are: {}", KEYWORDS.join(", "))
-                })))
+                .with_hint(
+                    did_you_mean(&kw.text, KEYWORDS.iter().copied())
+                        .unwrap_or_else(|| format!("statements are: {}", KEYWORDS.join(", "))),
+                ))
             }
         };
         if let Some(t) = self.peek() {
-            return Err(Diagnostic::error(ErrorKind::Syntax, t.span, format!("unexpected {} here", describe(&t.tok)))
-                .with_hint("one statement per line; parameters are written key=value"));
+            return Err(Diagnostic::error(
+                ErrorKind::Syntax,
+                t.span,
+                format!("unexpected {} here", describe(&t.tok)),
+            )
+            .with_hint("one statement per line; parameters are written key=value"));
         }
         Ok(stmt)
     }
@@ -466,7 +569,10 @@ impl Parser<'_> {
             }
             break;
         }
-        Ok(Ref { parts, span: start.to(self.prev_span()) })
+        Ok(Ref {
+            parts,
+            span: start.to(self.prev_span()),
+        })
     }
 
     fn param_value(&mut self) -> Result<Expr, Diagnostic> {
@@ -480,14 +586,23 @@ impl Parser<'_> {
             items.push(self.expr()?);
         }
         let span = items[0].span.to(items[items.len() - 1].span);
-        Ok(Expr { kind: ExprKind::List(items), span })
+        Ok(Expr {
+            kind: ExprKind::List(items),
+            span,
+        })
     }
 
     fn expr(&mut self) -> Result<Expr, Diagnostic> {
         self.depth += 1;
         if self.depth > MAX_DEPTH {
-            return Err(Diagnostic::error(ErrorKind::Limit, self.here(), "expression nested too deeply")
-                .with_hint(format!("at most {MAX_DEPTH} levels of parentheses and operators")));
+            return Err(Diagnostic::error(
+                ErrorKind::Limit,
+                self.here(),
+                "expression nested too deeply",
+            )
+            .with_hint(format!(
+                "at most {MAX_DEPTH} levels of parentheses and operators"
+            )));
         }
         let r = self.binary(0);
         self.depth -= 1;
@@ -498,11 +613,21 @@ impl Parser<'_> {
         let mut lhs = self.unary()?;
         loop {
             let (op, prec, right_assoc) = match self.peek() {
-                Some(Token { tok: Tok::Sym('+'), .. }) => (BinOp::Add, 1, false),
-                Some(Token { tok: Tok::Sym('-'), .. }) => (BinOp::Sub, 1, false),
-                Some(Token { tok: Tok::Sym('*'), .. }) => (BinOp::Mul, 2, false),
-                Some(Token { tok: Tok::Sym('/'), .. }) => (BinOp::Div, 2, false),
-                Some(Token { tok: Tok::Sym('^'), .. }) => (BinOp::Pow, 4, true),
+                Some(Token {
+                    tok: Tok::Sym('+'), ..
+                }) => (BinOp::Add, 1, false),
+                Some(Token {
+                    tok: Tok::Sym('-'), ..
+                }) => (BinOp::Sub, 1, false),
+                Some(Token {
+                    tok: Tok::Sym('*'), ..
+                }) => (BinOp::Mul, 2, false),
+                Some(Token {
+                    tok: Tok::Sym('/'), ..
+                }) => (BinOp::Div, 2, false),
+                Some(Token {
+                    tok: Tok::Sym('^'), ..
+                }) => (BinOp::Pow, 4, true),
                 _ => break,
             };
             if prec < min_prec {
@@ -511,12 +636,23 @@ impl Parser<'_> {
             self.pos += 1;
             self.depth += 1;
             if self.depth > MAX_DEPTH {
-                return Err(Diagnostic::error(ErrorKind::Limit, self.here(), "expression nested too deeply"));
+                return Err(Diagnostic::error(
+                    ErrorKind::Limit,
+                    self.here(),
+                    "expression nested too deeply",
+                ));
             }
-            let rhs = if right_assoc { self.binary_pow_rhs()? } else { self.binary(prec + 1)? };
+            let rhs = if right_assoc {
+                self.binary_pow_rhs()?
+            } else {
+                self.binary(prec + 1)?
+            };
             self.depth -= 1;
             let span = lhs.span.to(rhs.span);
-            lhs = Expr { kind: ExprKind::Bin(op, Box::new(lhs), Box::new(rhs)), span };
+            lhs = Expr {
+                kind: ExprKind::Bin(op, Box::new(lhs), Box::new(rhs)),
+                span,
+            };
         }
         Ok(lhs)
     }
@@ -533,23 +669,44 @@ impl Parser<'_> {
             self.pos += 1;
             self.depth += 1;
             if self.depth > MAX_DEPTH {
-                return Err(Diagnostic::error(ErrorKind::Limit, self.here(), "expression nested too deeply"));
+                return Err(Diagnostic::error(
+                    ErrorKind::Limit,
+                    self.here(),
+                    "expression nested too deeply",
+                ));
             }
             let inner = self.binary(3)?;
             self.depth -= 1;
             let span = start.to(inner.span);
-            return Ok(if neg { Expr { kind: ExprKind::Neg(Box::new(inner)), span } } else { inner });
+            return Ok(if neg {
+                Expr {
+                    kind: ExprKind::Neg(Box::new(inner)),
+                    span,
+                }
+            } else {
+                inner
+            });
         }
         self.postfix()
     }
 
     fn postfix(&mut self) -> Result<Expr, Diagnostic> {
         let mut e = self.primary()?;
-        if let Some(Token { tok: Tok::Unit(u), span }) = self.peek() {
-            let w = Word { text: u.clone(), span: *span };
+        if let Some(Token {
+            tok: Tok::Unit(u),
+            span,
+        }) = self.peek()
+        {
+            let w = Word {
+                text: u.clone(),
+                span: *span,
+            };
             self.pos += 1;
             let span = e.span.to(w.span);
-            e = Expr { kind: ExprKind::Unit(Box::new(e), w), span };
+            e = Expr {
+                kind: ExprKind::Unit(Box::new(e), w),
+                span,
+            };
         }
         Ok(e)
     }
@@ -561,21 +718,37 @@ impl Parser<'_> {
         match t.tok {
             Tok::Num(v) => {
                 self.pos += 1;
-                Ok(Expr { kind: ExprKind::Num(v), span: t.span })
+                Ok(Expr {
+                    kind: ExprKind::Num(v),
+                    span: t.span,
+                })
             }
             Tok::Str(s) => {
                 self.pos += 1;
-                Ok(Expr { kind: ExprKind::Str(s), span: t.span })
+                Ok(Expr {
+                    kind: ExprKind::Str(s),
+                    span: t.span,
+                })
             }
             Tok::Ident(name) => {
                 self.pos += 1;
                 if self.peek_sym('(') {
-                    let w = Word { text: name, span: t.span };
+                    let w = Word {
+                        text: name,
+                        span: t.span,
+                    };
                     self.pos += 1;
                     let mut args = Vec::new();
                     if !self.peek_sym(')') {
                         loop {
-                            let key = if matches!(self.peek(), Some(Token { tok: Tok::Ident(_), .. })) && self.peek_at_sym(1, '=') {
+                            let key = if matches!(
+                                self.peek(),
+                                Some(Token {
+                                    tok: Tok::Ident(_),
+                                    ..
+                                })
+                            ) && self.peek_at_sym(1, '=')
+                            {
                                 let k = self.ident("an argument name")?;
                                 self.pos += 1;
                                 Some(k)
@@ -592,9 +765,15 @@ impl Parser<'_> {
                         }
                     }
                     let end = self.expect_sym(')', "`)` or `,` in the argument list")?;
-                    return Ok(Expr { kind: ExprKind::Call(w, args), span: t.span.to(end) });
+                    return Ok(Expr {
+                        kind: ExprKind::Call(w, args),
+                        span: t.span.to(end),
+                    });
                 }
-                Ok(Expr { kind: ExprKind::Name(name), span: t.span })
+                Ok(Expr {
+                    kind: ExprKind::Name(name),
+                    span: t.span,
+                })
             }
             Tok::Sym('(') => {
                 self.pos += 1;
@@ -606,10 +785,16 @@ impl Parser<'_> {
                         items.push(self.expr()?);
                     }
                     let end = self.expect_sym(')', "`)` to close the point")?;
-                    return Ok(Expr { kind: ExprKind::Tuple(items), span: t.span.to(end) });
+                    return Ok(Expr {
+                        kind: ExprKind::Tuple(items),
+                        span: t.span.to(end),
+                    });
                 }
                 let end = self.expect_sym(')', "`)`")?;
-                Ok(Expr { span: t.span.to(end), ..first })
+                Ok(Expr {
+                    span: t.span.to(end),
+                    ..first
+                })
             }
             Tok::Sym('[') => {
                 self.pos += 1;
@@ -624,7 +809,10 @@ impl Parser<'_> {
                     }
                 }
                 let end = self.expect_sym(']', "`]`")?;
-                Ok(Expr { kind: ExprKind::Curve(points), span: t.span.to(end) })
+                Ok(Expr {
+                    kind: ExprKind::Curve(points),
+                    span: t.span.to(end),
+                })
             }
             _ => Err(self.unexpected("a value")),
         }
@@ -659,7 +847,9 @@ mod tests {
             s => panic!("{s:?}"),
         }
         match &st[5] {
-            Statement::Module { params, .. } => assert!(matches!(&params[1].value.kind, ExprKind::List(l) if l.len() == 2)),
+            Statement::Module { params, .. } => {
+                assert!(matches!(&params[1].value.kind, ExprKind::List(l) if l.len() == 2))
+            }
             s => panic!("{s:?}"),
         }
     }

@@ -1,4 +1,5 @@
 //! Shared test helpers: a plain reference stepper and seeded network builders.
+#![allow(clippy::unwrap_used)] // tests and benches may panic on failure
 #![allow(dead_code)]
 
 use cordis_core::{Curve, Interaction, Material, Network, Output, Signal};
@@ -47,7 +48,8 @@ pub fn reference(net: &Network, steps: usize) -> Vec<f64> {
             }
         }
     }
-    let lk_points: Vec<(Vec<(f64, f64)>, Vec<(f64, f64)>)> = net
+    type Points = Vec<(f64, f64)>;
+    let lk_points: Vec<(Points, Points)> = net
         .links
         .iter()
         .map(|l| match &l.law {
@@ -74,7 +76,9 @@ pub fn reference(net: &Network, steps: usize) -> Vec<f64> {
                         0.0
                     }
                 }
-                Interaction::Lnl { .. } => curve_ref(&lk_points[l].0, d) + curve_ref(&lk_points[l].1, v),
+                Interaction::Lnl { .. } => {
+                    curve_ref(&lk_points[l].0, d) + curve_ref(&lk_points[l].1, v)
+                }
             };
             force[a] -= f;
             force[b] += f;
@@ -94,7 +98,9 @@ pub fn reference(net: &Network, steps: usize) -> Vec<f64> {
                 Material::Mas { m, .. } => 2.0 * x[i] - xp[i] + force[i] / m,
                 Material::Sol { .. } => x[i],
                 Material::Cel { m, k, z, r, .. } => {
-                    r + (2.0 - (k + z) / m) * (x[i] - r) + (z / m - 1.0) * (xp[i] - r) + force[i] / m
+                    r + (2.0 - (k + z) / m) * (x[i] - r)
+                        + (z / m - 1.0) * (xp[i] - r)
+                        + force[i] / m
                 }
                 Material::Enx { signal } => signal.at(n + 1),
             };
@@ -110,7 +116,10 @@ pub struct Lcg(pub u64);
 
 impl Lcg {
     pub fn next_f64(&mut self) -> f64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (self.0 >> 11) as f64 / (1u64 << 53) as f64
     }
     pub fn below(&mut self, n: usize) -> usize {
@@ -122,22 +131,61 @@ impl Lcg {
 pub fn every_module_network() -> Network {
     let mut net = Network::new();
     let g = net.add_material(Material::Sol { x0: 0.0 });
-    let m1 = net.add_material(Material::Mas { m: 1.0, x0: 0.0, v0: 0.0 });
-    let m2 = net.add_material(Material::Mas { m: 1.5, x0: 0.2, v0: 0.01 });
-    let c = net.add_material(Material::Cel { m: 1.0, k: 0.01, z: 1e-5, x0: 1.0, v0: 0.0, r: 0.0 });
-    let hand = net.add_material(Material::Enx { signal: Signal::Sine { freq: 2.0 / 44100.0, amp: 0.3, phase: 0.0 } });
-    let m3 = net.add_material(Material::Mas { m: 0.7, x0: -0.1, v0: 0.0 });
+    let m1 = net.add_material(Material::Mas {
+        m: 1.0,
+        x0: 0.0,
+        v0: 0.0,
+    });
+    let m2 = net.add_material(Material::Mas {
+        m: 1.5,
+        x0: 0.2,
+        v0: 0.01,
+    });
+    let c = net.add_material(Material::Cel {
+        m: 1.0,
+        k: 0.01,
+        z: 1e-5,
+        x0: 1.0,
+        v0: 0.0,
+        r: 0.0,
+    });
+    let hand = net.add_material(Material::Enx {
+        signal: Signal::Sine {
+            freq: 2.0 / 44100.0,
+            amp: 0.3,
+            phase: 0.0,
+        },
+    });
+    let m3 = net.add_material(Material::Mas {
+        m: 0.7,
+        x0: -0.1,
+        v0: 0.0,
+    });
     let r = net.add_link(Interaction::Ref { k: 0.1, z: 1e-4 }, g, m1);
     net.add_link(Interaction::Res { k: 0.1 }, m1, m2);
     net.add_link(Interaction::Fro { z: 0.001 }, m1, m2);
-    net.add_link(Interaction::But { k: 0.05, z: 0.001, s: 0.1 }, m1, m3);
+    net.add_link(
+        Interaction::But {
+            k: 0.05,
+            z: 0.001,
+            s: 0.1,
+        },
+        m1,
+        m3,
+    );
     let lk = Curve::new(&[(-1.0, 0.0), (-1.0, -0.05), (1.0, 0.05), (1.0, 0.0)]).unwrap();
     let lz = Curve::new(&[(-1.0, -0.01), (1.0, 0.01)]).unwrap();
     let l = net.add_link(Interaction::Lnl { lk, lz }, m2, c);
     net.add_link(Interaction::Ref { k: 0.02, z: 1e-3 }, hand, m3);
     net.add_link(Interaction::Res { k: 0.01 }, c, m3);
     net.add_force(m1, Signal::Impulse { at: 0, amp: 1.0 });
-    net.add_force(m2, Signal::Step { at: 100, amp: -1e-4 });
+    net.add_force(
+        m2,
+        Signal::Step {
+            at: 100,
+            amp: -1e-4,
+        },
+    );
     net.add_force(m3, Signal::Noise { seed: 3, amp: 1e-3 });
     net.add_position_output(m1);
     net.add_position_output(m3);
@@ -157,11 +205,22 @@ pub fn random_network(seed: u64, n: usize, links_per_mass: usize) -> Network {
         let m = 0.5 + rng.next_f64();
         let x0 = 0.1 * (rng.next_f64() - 0.5);
         ids.push(if i % 7 == 3 {
-            net.add_material(Material::Cel { m, k: 0.01, z: 1e-4, x0, v0: 0.0, r: 0.0 })
+            net.add_material(Material::Cel {
+                m,
+                k: 0.01,
+                z: 1e-4,
+                x0,
+                v0: 0.0,
+                r: 0.0,
+            })
         } else if i % 11 == 5 {
             net.add_material(Material::Sol { x0 })
         } else {
-            net.add_material(Material::Mas { m, x0, v0: 0.01 * (rng.next_f64() - 0.5) })
+            net.add_material(Material::Mas {
+                m,
+                x0,
+                v0: 0.01 * (rng.next_f64() - 0.5),
+            })
         });
     }
     for _ in 0..n * links_per_mass / 2 {
@@ -177,7 +236,11 @@ pub fn random_network(seed: u64, n: usize, links_per_mass: usize) -> Network {
             0 => Interaction::Res { k },
             1 => Interaction::Fro { z },
             2 => Interaction::Ref { k, z },
-            3 => Interaction::But { k, z, s: 0.01 * (rng.next_f64() - 0.5) },
+            3 => Interaction::But {
+                k,
+                z,
+                s: 0.01 * (rng.next_f64() - 0.5),
+            },
             _ => Interaction::Lnl {
                 lk: Curve::new(&[(-0.05, -k * 0.05), (0.0, 0.0), (0.05, 2.0 * k * 0.05)]).unwrap(),
                 lz: Curve::new(&[(-1.0, -z), (1.0, z)]).unwrap(),
@@ -203,7 +266,8 @@ pub fn render(net: &Network, steps: usize, block: usize) -> Vec<f64> {
     let mut done = 0;
     while done < steps {
         let frames = block.min(steps - done);
-        e.process(frames, &mut out[done * ch..(done + frames) * ch]).expect("stable network");
+        e.process(frames, &mut out[done * ch..(done + frames) * ch])
+            .expect("stable network");
         done += frames;
     }
     out
@@ -212,5 +276,7 @@ pub fn render(net: &Network, steps: usize, block: usize) -> Vec<f64> {
 /// First index where two renders differ in their bits, if any.
 pub fn first_bit_difference(a: &[f64], b: &[f64]) -> Option<usize> {
     assert_eq!(a.len(), b.len());
-    a.iter().zip(b).position(|(x, y)| x.to_bits() != y.to_bits())
+    a.iter()
+        .zip(b)
+        .position(|(x, y)| x.to_bits() != y.to_bits())
 }
