@@ -14,6 +14,9 @@
 pub struct Curve {
     xs: Vec<f64>,
     ys: Vec<f64>,
+    /// `(y[i+1] - y[i]) / (x[i+1] - x[i])`, computed once (the same division, so the same bits as
+    /// computing it at every evaluation); unused for jumps.
+    slopes: Vec<f64>,
 }
 
 /// Why a list of points is not a curve.
@@ -62,9 +65,20 @@ impl Curve {
                 return Err(CurveError::Decreasing { index });
             }
         }
+        let slopes = points
+            .windows(2)
+            .map(|w| {
+                if w[1].0 > w[0].0 {
+                    (w[1].1 - w[0].1) / (w[1].0 - w[0].0)
+                } else {
+                    0.0
+                }
+            })
+            .collect();
         Ok(Curve {
             xs: points.iter().map(|p| p.0).collect(),
             ys: points.iter().map(|p| p.1).collect(),
+            slopes,
         })
     }
 
@@ -99,8 +113,8 @@ impl Curve {
         if i == n - 1 {
             return self.ys[i];
         }
-        let (x0, x1, y0, y1) = (self.xs[i], self.xs[i + 1], self.ys[i], self.ys[i + 1]);
-        y0 + (x - x0) * ((y1 - y0) / (x1 - x0))
+        // x[i] <= x < x[i+1]: a proper segment, never a jump.
+        self.ys[i] + (x - self.xs[i]) * self.slopes[i]
     }
 
     /// The slope of the segment that contains `x` (0 outside the points and at a jump's abscissa

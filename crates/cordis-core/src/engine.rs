@@ -2,23 +2,22 @@
 
 use crate::{Curve, Interaction, LinkId, MatId, Material, Network, Output, Signal};
 
-/// Links of one law, stored as parallel arrays. `a`/`b` are storage slots of the ends, `out` the
-/// link's declaration index (where its force goes in the per-link force array).
-#[derive(Clone, Debug, Default)]
-struct Group<P> {
-    a: Vec<u32>,
-    b: Vec<u32>,
-    out: Vec<u32>,
-    p: Vec<P>,
+/// The law of a run of consecutive links (in declaration order) that share it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Law {
+    Res,
+    Fro,
+    Ref,
+    But,
+    Lnl,
 }
 
-impl<P> Group<P> {
-    fn push(&mut self, a: u32, b: u32, out: u32, p: P) {
-        self.a.push(a);
-        self.b.push(b);
-        self.out.push(out);
-        self.p.push(p);
-    }
+/// Links `start..end` (declaration order) all have law `law`.
+#[derive(Clone, Copy, Debug)]
+struct Run {
+    law: Law,
+    start: usize,
+    end: usize,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -66,9 +65,11 @@ impl std::error::Error for BlowUp {}
 /// run is cut into blocks.
 ///
 /// Storage: material modules are reordered by kind (MAS, CEL, ENX, SOL) so that each kind's update
-/// is one tight loop; links are grouped by law. Forces are accumulated onto the materials in the
-/// declaration order of the links, then ENF inputs in their order, so the floating-point sums are
-/// exactly the ones of the plain, one-module-at-a-time definition.
+/// is one tight loop. Links stay in declaration order, cut into runs of consecutive links with the
+/// same law; each run is one loop that computes the force and adds it to both ends at once. Forces
+/// therefore reach the materials in the declaration order of the links, then the ENF inputs in
+/// theirs: the floating-point sums are exactly those of the plain, one-module-at-a-time definition,
+/// and the output equals the reference stepper bit for bit.
 #[derive(Clone, Debug)]
 pub struct Engine {
     n: u64,
@@ -85,17 +86,20 @@ pub struct Engine {
     enx: Vec<Signal>,
     /// storage slot of each material, by declaration index
     slot: Vec<u32>,
-    // links
-    res: Group<f64>,
-    fro: Group<f64>,
-    refs: Group<(f64, f64)>,
-    but: Group<(f64, f64, f64)>,
-    lnl: Group<(Curve, Curve)>,
-    /// per-link force f(n), declaration order
-    lf: Vec<f64>,
-    /// ends of each link in declaration order (storage slots)
+    /// MAS update multiplies by `1/M` instead of dividing by `M`: only when every MAS inertia is a
+    /// power of two, where both give the same correctly rounded result.
+    mas_inv: Option<Vec<f64>>,
+    // links, in declaration order; every `la`/`lb` is < the number of materials (checked in `new`)
+    runs: Vec<Run>,
     la: Vec<u32>,
     lb: Vec<u32>,
+    lk: Vec<f64>,
+    lz: Vec<f64>,
+    ls: Vec<f64>,
+    /// LNL curves, by declaration index of the link (empty curves for other laws)
+    curves: Vec<(Curve, Curve)>,
+    /// per-link force f(n), declaration order
+    lf: Vec<f64>,
     // inputs and outputs
     enf_slot: Vec<u32>,
     enf: Vec<Signal>,
@@ -140,14 +144,15 @@ impl Engine {
             cel: Vec::new(),
             enx: Vec::new(),
             slot,
-            res: Group::default(),
-            fro: Group::default(),
-            refs: Group::default(),
-            but: Group::default(),
-            lnl: Group::default(),
+            mas_inv: None,
+            runs: Vec::new(),
+            la: Vec::new(),
+            lb: Vec::new(),
+            lk: Vec::new(),
+            lz: Vec::new(),
+            ls: Vec::new(),
+            curves: Vec::new(),
             lf: vec![0.0; net.links.len()],
-            la: Vec::with_capacity(net.links.len()),
-            lb: Vec::with_capacity(net.links.len()),
             enf_slot: Vec::new(),
             enf: Vec::new(),
             channels: Vec::new(),
@@ -186,25 +191,43 @@ impl Engine {
             );
             e.slot[id.index()]
         };
-        let mut groups = (
-            Group::default(),
-            Group::default(),
-            Group::default(),
-            Group::default(),
-            Group::default(),
-        );
-        let mut la = Vec::with_capacity(net.links.len());
-        let mut lb = Vec::with_capacity(net.links.len());
+        let nl = net.links.len();
+        let (mut la, mut lb) = (Vec::with_capacity(nl), Vec::with_capacity(nl));
+        let (mut lk, mut lz, mut ls) = (vec![0.0; nl], vec![0.0; nl], vec![0.0; nl]);
+        let mut curves = vec![(Curve::zero(), Curve::zero()); nl];
+        let mut runs: Vec<Run> = Vec::new();
         for (l, link) in net.links.iter().enumerate() {
-            let (a, b, o) = (slot_of(link.a), slot_of(link.b), l as u32);
-            la.push(a);
-            lb.push(b);
-            match &link.law {
-                Interaction::Res { k } => groups.0.push(a, b, o, *k),
-                Interaction::Fro { z } => groups.1.push(a, b, o, *z),
-                Interaction::Ref { k, z } => groups.2.push(a, b, o, (*k, *z)),
-                Interaction::But { k, z, s } => groups.3.push(a, b, o, (*k, *z, *s)),
-                Interaction::Lnl { lk, lz } => groups.4.push(a, b, o, (lk.clone(), lz.clone())),
+            la.push(slot_of(link.a));
+            lb.push(slot_of(link.b));
+            let law = match &link.law {
+                Interaction::Res { k } => {
+                    lk[l] = *k;
+                    Law::Res
+                }
+                Interaction::Fro { z } => {
+                    lz[l] = *z;
+                    Law::Fro
+                }
+                Interaction::Ref { k, z } => {
+                    (lk[l], lz[l]) = (*k, *z);
+                    Law::Ref
+                }
+                Interaction::But { k, z, s } => {
+                    (lk[l], lz[l], ls[l]) = (*k, *z, *s);
+                    Law::But
+                }
+                Interaction::Lnl { lk: ck, lz: cz } => {
+                    curves[l] = (ck.clone(), cz.clone());
+                    Law::Lnl
+                }
+            };
+            match runs.last_mut() {
+                Some(r) if r.law == law => r.end = l + 1,
+                _ => runs.push(Run {
+                    law,
+                    start: l,
+                    end: l + 1,
+                }),
             }
         }
         let mut enf_slot = Vec::with_capacity(net.forces.len());
@@ -226,9 +249,10 @@ impl Engine {
                 }
             })
             .collect();
-        (e.res, e.fro, e.refs, e.but, e.lnl) = groups;
-        e.la = la;
-        e.lb = lb;
+        (e.runs, e.la, e.lb, e.lk, e.lz, e.ls, e.curves) = (runs, la, lb, lk, lz, ls, curves);
+        if e.mas_m.iter().all(|&m| is_power_of_two(m)) {
+            e.mas_inv = Some(e.mas_m.iter().map(|m| 1.0 / m).collect());
+        }
         e.enf_slot = enf_slot;
         e.enf = net.forces.iter().map(|f| f.signal.clone()).collect();
         e.channels = channels;
@@ -329,6 +353,11 @@ impl Engine {
         unreachable!("a replay from the same state must reproduce the same non-finite position")
     }
 
+    /// The forces of the links of the last step, in declaration order.
+    pub fn link_forces(&self) -> &[f64] {
+        &self.lf
+    }
+
     fn first_non_finite(&self) -> Option<MatId> {
         self.slot
             .iter()
@@ -340,82 +369,74 @@ impl Engine {
     #[inline]
     fn step(&mut self, frame: &mut [f64]) {
         let n = self.n;
-        let (x, xp, lf) = (&self.x, &self.xp, &mut self.lf);
 
-        // 1. Interaction forces f(n) from x(n), x(n-1).
-        for (((&a, &b), &o), &k) in self
-            .res
-            .a
-            .iter()
-            .zip(&self.res.b)
-            .zip(&self.res.out)
-            .zip(&self.res.p)
-        {
-            let d = x[a as usize] - x[b as usize];
-            lf[o as usize] = k * d;
-        }
-        for (((&a, &b), &o), &z) in self
-            .fro
-            .a
-            .iter()
-            .zip(&self.fro.b)
-            .zip(&self.fro.out)
-            .zip(&self.fro.p)
-        {
-            let (a, b) = (a as usize, b as usize);
-            let v = (x[a] - xp[a]) - (x[b] - xp[b]);
-            lf[o as usize] = z * v;
-        }
-        for (((&a, &b), &o), &(k, z)) in self
-            .refs
-            .a
-            .iter()
-            .zip(&self.refs.b)
-            .zip(&self.refs.out)
-            .zip(&self.refs.p)
-        {
-            let (a, b) = (a as usize, b as usize);
-            let d = x[a] - x[b];
-            let v = (x[a] - xp[a]) - (x[b] - xp[b]);
-            lf[o as usize] = k * d + z * v;
-        }
-        for (((&a, &b), &o), &(k, z, s)) in self
-            .but
-            .a
-            .iter()
-            .zip(&self.but.b)
-            .zip(&self.but.out)
-            .zip(&self.but.p)
-        {
-            let (a, b) = (a as usize, b as usize);
-            lf[o as usize] = if x[b] - x[a] < s {
-                let d = x[a] - x[b];
-                let v = (x[a] - xp[a]) - (x[b] - xp[b]);
-                k * (d + s) + z * v
-            } else {
-                0.0
+        // 1-2. Interaction forces f(n) from x(n), x(n-1), added to the ends in declaration order
+        // (end 1 gets -f, end 2 gets +f); then the ENF inputs.
+        for run in &self.runs {
+            let r = run.start..run.end;
+            let (la, lb, lf) = (
+                &self.la[r.clone()],
+                &self.lb[r.clone()],
+                &mut self.lf[r.clone()],
+            );
+            let state = State {
+                x: &self.x,
+                xp: &self.xp,
             };
+            let f = &mut self.f;
+            match run.law {
+                Law::Res => {
+                    for (((&a, &b), out), &k) in la.iter().zip(lb).zip(lf).zip(&self.lk[r]) {
+                        let fl = k * state.d(a, b);
+                        *out = fl;
+                        add(f, a, b, fl);
+                    }
+                }
+                Law::Fro => {
+                    for (((&a, &b), out), &z) in la.iter().zip(lb).zip(lf).zip(&self.lz[r]) {
+                        let fl = z * state.v(a, b);
+                        *out = fl;
+                        add(f, a, b, fl);
+                    }
+                }
+                Law::Ref => {
+                    for ((((&a, &b), out), &k), &z) in la
+                        .iter()
+                        .zip(lb)
+                        .zip(lf)
+                        .zip(&self.lk[r.clone()])
+                        .zip(&self.lz[r])
+                    {
+                        let fl = k * state.d(a, b) + z * state.v(a, b);
+                        *out = fl;
+                        add(f, a, b, fl);
+                    }
+                }
+                Law::But => {
+                    let (lk, lz, ls) = (&self.lk[r.clone()], &self.lz[r.clone()], &self.ls[r]);
+                    for (i, ((&a, &b), out)) in la.iter().zip(lb).zip(lf).enumerate() {
+                        let (k, z, s) = (lk[i], lz[i], ls[i]);
+                        let fl = if state.x(b) - state.x(a) < s {
+                            k * (state.d(a, b) + s) + z * state.v(a, b)
+                        } else {
+                            0.0
+                        };
+                        *out = fl;
+                        add(f, a, b, fl);
+                    }
+                }
+                Law::Lnl => {
+                    for (((&a, &b), out), (ck, cz)) in
+                        la.iter().zip(lb).zip(lf).zip(&self.curves[r])
+                    {
+                        let fl = ck.eval(state.d(a, b)) + cz.eval(state.v(a, b));
+                        *out = fl;
+                        add(f, a, b, fl);
+                    }
+                }
+            }
         }
-        for (((&a, &b), &o), (lk, lz)) in self
-            .lnl
-            .a
-            .iter()
-            .zip(&self.lnl.b)
-            .zip(&self.lnl.out)
-            .zip(&self.lnl.p)
-        {
-            let (a, b) = (a as usize, b as usize);
-            let d = x[a] - x[b];
-            let v = (x[a] - xp[a]) - (x[b] - xp[b]);
-            lf[o as usize] = lk.eval(d) + lz.eval(v);
-        }
-
-        // 2. Accumulate: end 1 gets -f, end 2 gets +f, in declaration order; then ENF inputs.
-        let f = &mut self.f;
-        for ((&a, &b), &fl) in self.la.iter().zip(&self.lb).zip(lf.iter()) {
-            f[a as usize] -= fl;
-            f[b as usize] += fl;
-        }
+        let (f, lf) = (&mut self.f, &self.lf);
         for (&s, sig) in self.enf_slot.iter().zip(&self.enf) {
             f[s as usize] += sig.at(n);
         }
@@ -467,5 +488,69 @@ impl Engine {
         }
         f[enx_end..].fill(0.0); // SOL: forces discarded, position unchanged
         self.n = n + 1;
+    }
+}
+
+/// True when `m` is a (normal) power of two, so that `f / m == f * (1 / m)` for every `f`: both are
+/// the correctly rounded value of the same real number `f * 2^-k`.
+fn is_power_of_two(m: f64) -> bool {
+    let bits = m.to_bits();
+    let exponent = (bits >> 52) & 0x7ff;
+    m > 0.0
+        && bits & ((1u64 << 52) - 1) == 0
+        && exponent != 0
+        && exponent != 0x7ff
+        && (1.0 / m).is_normal()
+}
+
+/// Read access to the positions by storage slot, for the link loops.
+///
+/// Every slot handed to these methods comes from `Engine::la`/`Engine::lb`, which `Engine::new`
+/// fills only with `slot_of(..)` values, each asserted `< materials.len()`; `x` and `xp` have
+/// exactly `materials.len()` elements and are never resized. So every access is in bounds, and the
+/// unchecked reads below are sound. `tests/engine.rs` (`engine_refuses_foreign_ids`) checks that a
+/// network with an out-of-range id is refused by `Engine::new` before any step.
+struct State<'a> {
+    x: &'a [f64],
+    xp: &'a [f64],
+}
+
+impl State<'_> {
+    #[inline(always)]
+    fn x(&self, i: u32) -> f64 {
+        debug_assert!((i as usize) < self.x.len());
+        // SAFETY: `i` is a validated storage slot (see the type's documentation).
+        unsafe { *self.x.get_unchecked(i as usize) }
+    }
+
+    #[inline(always)]
+    fn xp(&self, i: u32) -> f64 {
+        debug_assert!((i as usize) < self.xp.len());
+        // SAFETY: as for `x`; `xp` has the same length.
+        unsafe { *self.xp.get_unchecked(i as usize) }
+    }
+
+    /// `d = x1(n) - x2(n)`.
+    #[inline(always)]
+    fn d(&self, a: u32, b: u32) -> f64 {
+        self.x(a) - self.x(b)
+    }
+
+    /// `v = (x1(n) - x1(n-1)) - (x2(n) - x2(n-1))`.
+    #[inline(always)]
+    fn v(&self, a: u32, b: u32) -> f64 {
+        (self.x(a) - self.xp(a)) - (self.x(b) - self.xp(b))
+    }
+}
+
+/// End 1 receives `-fl`, end 2 receives `+fl`.
+#[inline(always)]
+fn add(f: &mut [f64], a: u32, b: u32, fl: f64) {
+    debug_assert!((a as usize) < f.len() && (b as usize) < f.len());
+    // SAFETY: `a` and `b` are validated storage slots (see `State`), and `f` has one element per
+    // material, like `x`.
+    unsafe {
+        *f.get_unchecked_mut(a as usize) -= fl;
+        *f.get_unchecked_mut(b as usize) += fl;
     }
 }

@@ -201,3 +201,52 @@ fn curves_agree_with_the_linear_scan() {
         assert_eq!(c.eval(x).to_bits(), curve_ref(&pts, x).to_bits());
     }
 }
+
+#[test]
+#[should_panic(expected = "refers to material")]
+fn engine_refuses_foreign_ids() {
+    // The fields of `Network` are public, so a caller can push a link whose end does not exist;
+    // `Engine::new` must refuse it before any (unchecked) step can read out of bounds.
+    let mut net = Network::new();
+    let a = net.add_material(Material::Mas {
+        m: 1.0,
+        x0: 0.0,
+        v0: 0.0,
+    });
+    net.links.push(cordis_core::Link {
+        law: Interaction::Res { k: 0.1 },
+        a,
+        b: cordis_core::MatId(7),
+    });
+    let _ = Engine::new(&net);
+}
+
+#[test]
+fn non_power_of_two_masses_match_the_reference_too() {
+    // Masses of 1 (multiplied by the exact reciprocal) and of 0.7, 1.5 (divided) both match.
+    for seed in [11, 12] {
+        let net = random_network(seed, 30, 3);
+        assert_eq!(
+            first_bit_difference(&render(&net, 2000, 33), &reference(&net, 2000)),
+            None
+        );
+    }
+    let mut net = Network::new();
+    let g = net.add_material(Material::Sol { x0: 0.0 });
+    let mut prev = g;
+    for i in 0..20 {
+        let m = net.add_material(Material::Mas {
+            m: [1.0, 2.0, 0.5, 4.0][i % 4],
+            x0: 0.0,
+            v0: 0.0,
+        });
+        net.add_link(Interaction::Ref { k: 0.1, z: 1e-4 }, prev, m);
+        net.add_position_output(m);
+        prev = m;
+    }
+    net.add_force(prev, Signal::Noise { seed: 1, amp: 1.0 });
+    assert_eq!(
+        first_bit_difference(&render(&net, 5000, 100), &reference(&net, 5000)),
+        None
+    );
+}
