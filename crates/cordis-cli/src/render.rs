@@ -1,6 +1,7 @@
 //! The `render` and `check` commands.
 
-use std::io::IsTerminal;
+use std::fmt::Write as _;
+use std::io::{IsTerminal, Write as _};
 use std::time::{Duration, Instant};
 
 use cordis_core::{BlowUp, Material, Network};
@@ -29,16 +30,24 @@ pub fn check(args: &ModelArgs) -> u8 {
         Ok(m) => m,
         Err(c) => return c,
     };
+    let mut out = String::new();
+    macro_rules! outln {
+        ($o:expr, $($t:tt)*) => {{
+            let _ = writeln!($o, $($t)*);
+        }};
+    }
     let net = &model.network;
     let count = |f: &dyn Fn(&Material) -> bool| net.materials.iter().filter(|m| f(m)).count();
-    println!("{}: valid", model.path.display());
-    println!("  rate          {} Hz", model.rate);
-    println!(
+    outln!(out, "{}: valid", model.path.display());
+    outln!(out, "  rate          {} Hz", model.rate);
+    outln!(
+        out,
         "  duration      {:.6} s ({} samples)",
         model.duration as f64 / model.rate,
         model.duration
     );
-    println!(
+    outln!(
+        out,
         "  materials     {}: {} mas, {} cel, {} sol, {} enx",
         net.materials.len(),
         count(&|m| matches!(m, Material::Mas { .. })),
@@ -57,12 +66,13 @@ pub fn check(args: &ModelArgs) -> u8 {
             )
         })
         .collect();
-    println!(
+    outln!(
+        out,
         "  interactions  {}: {}",
         net.links.len(),
         by_kind.join(", ")
     );
-    println!("  inputs        {} enf", net.forces.len());
+    outln!(out, "  inputs        {} enf", net.forces.len());
     let outs: Vec<String> = model
         .outputs
         .iter()
@@ -76,19 +86,22 @@ pub fn check(args: &ModelArgs) -> u8 {
             }
         })
         .collect();
-    println!(
+    outln!(
+        out,
         "  outputs       {}{}{}",
         outs.len(),
         if outs.is_empty() { "" } else { ": " },
         outs.join(", ")
     );
     let s = stability::check(&model);
-    println!(
+    outln!(
+        out,
         "stability: {}",
         if s.stable { "stable" } else { "UNSTABLE" }
     );
     for c in &s.cels {
-        println!(
+        outln!(
+            out,
             "  cel {}: Z/M = {:.6e} (must be in [0, 2)), (K+2Z)/M = {:.6e} (must be < 4): {}",
             c.name,
             c.z_over_m,
@@ -97,7 +110,7 @@ pub fn check(args: &ModelArgs) -> u8 {
         );
     }
     if net.materials.iter().any(Material::is_mobile) {
-        println!(
+        outln!(out,
             "  network: largest eigenvalue of M^-1 K = {:.6} (must be < 4; Gershgorin bound {:.6}){}",
             s.lambda_max,
             s.lambda_bound,
@@ -110,9 +123,11 @@ pub fn check(args: &ModelArgs) -> u8 {
             .iter()
             .map(|(n, r)| format!("{n} (row sum {r:.3})"))
             .collect();
-        println!("  at fault: {}", list.join(", "));
-        println!("  hint: lower the stiffness of the links at these modules, make them heavier, or raise the rate");
+        outln!(out, "  at fault: {}", list.join(", "));
+        outln!(out, "  hint: lower the stiffness of the links at these modules, make them heavier, or raise the rate");
     }
+    // A closed pipe (`cordis check m.cordis | head`) is not an error.
+    let _ = std::io::stdout().write_all(out.as_bytes());
     if s.stable {
         exit::OK
     } else {

@@ -452,16 +452,24 @@ impl Engine {
         // 4. Materials compute x(n+1).
         let (x, xp) = (&mut self.x, &mut self.xp);
         let nm = self.n_mas;
-        for (((xi, xpi), fi), &m) in x[..nm]
-            .iter_mut()
-            .zip(&mut xp[..nm])
-            .zip(&mut f[..nm])
-            .zip(&self.mas_m)
-        {
-            let next = 2.0 * *xi - *xpi + *fi / m;
-            *xpi = *xi;
-            *xi = next;
-            *fi = 0.0;
+        let mas = x[..nm].iter_mut().zip(&mut xp[..nm]).zip(&mut f[..nm]);
+        match &self.mas_inv {
+            Some(inv) => {
+                for (((xi, xpi), fi), &im) in mas.zip(inv) {
+                    let next = 2.0 * *xi - *xpi + *fi * im;
+                    *xpi = *xi;
+                    *xi = next;
+                    *fi = 0.0;
+                }
+            }
+            None => {
+                for (((xi, xpi), fi), &m) in mas.zip(&self.mas_m) {
+                    let next = 2.0 * *xi - *xpi + *fi / m;
+                    *xpi = *xi;
+                    *xi = next;
+                    *fi = 0.0;
+                }
+            }
         }
         let cel_end = nm + self.n_cel;
         for (((xi, xpi), fi), c) in x[nm..cel_end]

@@ -205,7 +205,14 @@ pub fn did_you_mean<'a>(
             continue;
         }
         let key = (edits.min(2), -score);
-        if best.is_none_or(|(b, _)| key.0 < b.0 || (key.0 == b.0 && key.1 < b.1)) {
+        // ties go to the alphabetically first candidate, so the hint never depends on hash order
+        let better = match best {
+            None => true,
+            Some((b, bc)) => {
+                key.0 < b.0 || (key.0 == b.0 && (key.1 < b.1 || (key.1 == b.1 && c < bc)))
+            }
+        };
+        if better {
             best = Some(((key.0, key.1), c));
         }
     }

@@ -59,6 +59,8 @@ pub struct Env {
     pub fs: f64,
     /// `let` values.
     pub lets: HashMap<String, Value>,
+    /// `let` names whose definition failed: uses of them are not reported again.
+    pub failed: std::collections::HashSet<String>,
 }
 
 const FUNCTIONS: &[&str] = &["sqrt", "sin", "cos", "tan", "exp", "log", "abs"];
@@ -122,6 +124,10 @@ impl Env {
             ExprKind::Name(n) => match self.lets.get(n) {
                 Some(v) => *v,
                 None if n == "pi" => plain(std::f64::consts::PI),
+                // already reported where it was defined: an empty message is not shown
+                None if self.failed.contains(n) => {
+                    return Err(Diagnostic::error(ErrorKind::UnknownName, e.span, ""))
+                }
                 None => {
                     let hint = did_you_mean(n, self.lets.keys().map(String::as_str).chain(["pi"]))
                         .unwrap_or_else(|| "define it first with `let NAME = VALUE`".into());
@@ -137,8 +143,23 @@ impl Env {
                 let a = self.eval(a)?;
                 Value { v: -a.v, ..a }
             }
-            ExprKind::Bin(op, a, b) => {
-                let (a, b) = (self.eval(a)?, self.eval(b)?);
+            ExprKind::Bin(op, ea, eb) => {
+                let (a, b) = (self.eval(ea)?, self.eval(eb)?);
+                if matches!(op, BinOp::Add | BinOp::Sub)
+                    && a.kind != b.kind
+                    && ![Kind::Plain, Kind::Mixed].contains(&a.kind)
+                    && ![Kind::Plain, Kind::Mixed].contains(&b.kind)
+                {
+                    return Err(Diagnostic::error(
+                        ErrorKind::UnitMismatch,
+                        e.span,
+                        format!(
+                            "cannot add or subtract {} and {}",
+                            a.kind.describe(),
+                            b.kind.describe()
+                        ),
+                    ));
+                }
                 let v = match op {
                     BinOp::Add => a.v + b.v,
                     BinOp::Sub => a.v - b.v,
@@ -251,6 +272,7 @@ mod tests {
                     kind: Kind::Plain,
                 },
             )]),
+            failed: Default::default(),
         };
         env.eval(&parse_expr(text).unwrap()).unwrap()
     }
@@ -288,6 +310,7 @@ mod tests {
         let env = Env {
             fs: 44100.0,
             lets: HashMap::new(),
+            failed: Default::default(),
         };
         let e = env
             .number(&parse_expr("440Hz").unwrap(), Kind::Stiffness, "K")
@@ -297,5 +320,13 @@ mod tests {
         assert!(env.eval(&parse_expr("1/0").unwrap()).is_err());
         let e = env.eval(&parse_expr("kk").unwrap()).unwrap_err();
         assert_eq!(e.kind, ErrorKind::UnknownName);
+        let e = env.eval(&parse_expr("1N/m + 1Hz").unwrap()).unwrap_err();
+        assert_eq!(e.kind, ErrorKind::UnitMismatch);
+        assert!(
+            e.message.contains("a stiffness (N/m) and a frequency (Hz)"),
+            "{}",
+            e.message
+        );
+        assert!(env.eval(&parse_expr("1N/m + 2").unwrap()).is_ok());
     }
 }

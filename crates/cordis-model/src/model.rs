@@ -257,6 +257,7 @@ impl<'a> Builder<'a> {
             env: Env {
                 fs: 44100.0,
                 lets: HashMap::new(),
+                failed: Default::default(),
             },
             net: Network::new(),
             names: HashMap::new(),
@@ -299,12 +300,24 @@ impl<'a> Builder<'a> {
                 }
             }
         }
-        let mut duration_set = false;
+        let mut duration_set: Option<usize> = None;
         for s in stmts {
             let r = match s {
                 Statement::Let { name, value, .. } => self.let_stmt(name, value),
-                Statement::Setting { keyword, value, .. } if keyword.text == "duration" => {
-                    duration_set = true;
+                Statement::Setting {
+                    keyword,
+                    value,
+                    span,
+                } if keyword.text == "duration" => {
+                    if let Some(first) = duration_set {
+                        self.diags.push(Diagnostic::error(
+                            ErrorKind::DuplicateName,
+                            *span,
+                            format!("`duration` is set twice (first at line {first})"),
+                        ));
+                        continue;
+                    }
+                    duration_set = Some(span.line);
                     if self.opts.duration.is_none() {
                         self.env
                             .number(value, Kind::Time, "duration")
@@ -354,7 +367,7 @@ impl<'a> Builder<'a> {
                     Some("give a time such as 2s, 500ms or 88200 (samples)".into()),
                 ),
             }
-        } else if !duration_set {
+        } else if duration_set.is_none() {
             self.duration = self.fs.round() as u64; // default: one second
         }
         for (i, (name, _)) in self.opts.sets.iter().enumerate() {
@@ -387,6 +400,7 @@ impl<'a> Builder<'a> {
         let rate_env = Env {
             fs: 1.0,
             lets: HashMap::new(),
+            failed: Default::default(),
         };
         let mut rate = 44100.0;
         let mut seen: Option<Span> = None;
@@ -498,9 +512,14 @@ impl<'a> Builder<'a> {
                 "`pi` is a built-in constant",
             ));
         }
-        let mut v = self.env.eval(value)?;
-        if let Some(i) = self.opts.sets.iter().rposition(|(n, _)| *n == name.text) {
+        let set = self.opts.sets.iter().rposition(|(n, _)| *n == name.text);
+        if let Some(i) = set {
             self.set_used[i] = true;
+        }
+        let mut v = self.env.eval(value).inspect_err(|_| {
+            self.env.failed.insert(name.text.clone());
+        })?;
+        if let Some(i) = set {
             let text = &self.opts.sets[i].1;
             v = syntax::parse_expr(text)
                 .and_then(|e| self.env.eval(&e))
@@ -842,7 +861,12 @@ impl<'a> Builder<'a> {
                     }
                     let freq = self.env.number(&f.value, Kind::Freq, "f")?;
                     if !(0.0..0.5).contains(&freq) {
-                        return Err(nyquist(f.value.span, freq, self.fs));
+                        let bare = self
+                            .env
+                            .eval(&f.value)
+                            .map(|v| v.kind == Kind::Plain)
+                            .unwrap_or(false);
+                        return Err(nyquist(f.value.span, freq, self.fs, bare));
                     }
                     let tau = match tp {
                         Some(t) => {
@@ -1297,14 +1321,27 @@ fn first_member(base: &str, kind: &str) -> String {
     }
 }
 
-fn nyquist(span: Span, freq: f64, fs: f64) -> Diagnostic {
-    Diagnostic::error(ErrorKind::OutOfRange, span, format!(
-        "a frequency of {} cycles per sample ({} Hz) is not between 0 and the Nyquist frequency {} Hz",
-        freq,
-        freq * fs,
-        fs / 2.0
-    ))
-    .with_hint(format!("a bare number is in cycles per sample; for hertz write it with a unit, e.g. {}Hz", freq))
+pub(crate) fn nyquist(span: Span, freq: f64, fs: f64, bare: bool) -> Diagnostic {
+    let d = Diagnostic::error(
+        ErrorKind::OutOfRange,
+        span,
+        format!(
+            "a frequency of {} cycles per sample ({} Hz) is not between 0 and the Nyquist frequency {} Hz",
+            freq,
+            freq * fs,
+            fs / 2.0
+        ),
+    );
+    if bare {
+        d.with_hint(format!(
+            "a bare number is in cycles per sample; for hertz write it with a unit, e.g. {freq}Hz"
+        ))
+    } else {
+        d.with_hint(format!(
+            "frequencies must stay below half the sample rate; raise the rate above {} Hz",
+            2.0 * freq * fs
+        ))
+    }
 }
 
 /// `(K, Z)` of a CEL of inertia `m` ringing at `freq` cycles per sample with amplitude decay time
@@ -1340,6 +1377,7 @@ pub fn eval_text(text: &str, fs: f64) -> Result<Value, Diagnostic> {
     Env {
         fs,
         lets: HashMap::new(),
+        failed: Default::default(),
     }
     .eval(&e)
 }

@@ -109,13 +109,10 @@ pub fn build(env: &Env, e: &Expr, model_path: &Path, limits: &Limits) -> R<Signa
             })?;
             let freq = env.number(fe, Kind::Freq, "freq")?;
             if !(0.0..0.5).contains(&freq) {
-                return Err(Diagnostic::error(ErrorKind::OutOfRange, fe.span, format!(
-                    "a frequency of {freq} cycles per sample ({} Hz) is not between 0 and Nyquist ({} Hz)",
-                    freq * env.fs,
-                    env.fs / 2.0
-                ))
-                .with_hint(format!("a bare number is in cycles per sample; for hertz write {freq}Hz")));
+                let bare = env.eval(fe).map(|v| v.kind == Kind::Plain).unwrap_or(false);
+                return Err(crate::model::nyquist(fe.span, freq, env.fs, bare));
             }
+
             Signal::Sine {
                 freq,
                 amp: opt(env, a[1], Kind::Mixed, "amp", 1.0)?,
@@ -356,7 +353,7 @@ fn read_csv(path: &Path, column: usize, max_samples: usize) -> FileResult {
         match field.parse::<f64>() {
             Ok(v) if v.is_finite() => out.push(v),
             Ok(_) => return Err((format!("line {}: `{field}` is not finite", n + 1), None)),
-            Err(_) if out.is_empty() && n == 0 => continue, // a header line
+            Err(_) if out.is_empty() => continue, // header lines before the data
             Err(_) => {
                 return Err((
                     format!("line {}: `{field}` is not a number", n + 1),

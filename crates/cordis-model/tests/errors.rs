@@ -394,3 +394,83 @@ fn hostile_text_never_panics_or_hangs() {
     // a loose bound that only a hang or an explosion of work would break
     assert!(start.elapsed().as_secs() < 120);
 }
+
+#[test]
+fn did_you_mean_is_deterministic() {
+    // `m1` and `m2` are equally close to `m3`: the hint must not depend on hash order.
+    let text = "mas m1 M=1\nmas m2 M=1\nref spring m1 m3 K=0.01\n";
+    for _ in 0..20 {
+        let d = first_error(text);
+        assert_eq!(d.hint.as_deref(), Some("did you mean `m1`?"));
+    }
+}
+
+#[test]
+fn adding_different_units_is_refused() {
+    let d = first_error("mas a M=1\nmas b M=1\nres r a b K=1N/m + 1Hz\n");
+    check(
+        &d,
+        ErrorKind::UnitMismatch,
+        3,
+        13,
+        "a stiffness (N/m) and a frequency (Hz)",
+        "",
+    );
+}
+
+#[test]
+fn nyquist_hint_fits_what_was_written() {
+    let d = first_error("cel c M=1 f=22050Hz\n");
+    let h = d.hint.unwrap();
+    assert!(
+        h.contains("raise the rate above 44100 Hz") && !h.contains("with a unit"),
+        "{h}"
+    );
+    let d = first_error("cel c M=1 f=0.7\n");
+    assert!(d.hint.unwrap().contains("0.7Hz"));
+    let d = first_error("mas m M=1\nenf e m signal=sine(freq=30kHz)\n");
+    assert!(d.hint.unwrap().contains("raise the rate"));
+}
+
+#[test]
+fn a_failed_let_is_reported_once() {
+    let opts = Options {
+        sets: vec![("k".into(), "0.3".into())],
+        ..Options::default()
+    };
+    let errs = errors_with(
+        "let k = foo\nmas m M=1 X0=k\nmas n M=1 X0=2*k\nsox o m\n",
+        &opts,
+    );
+    assert_eq!(errs.len(), 1, "{errs:?}");
+    check(
+        &errs[0],
+        ErrorKind::UnknownName,
+        1,
+        9,
+        "unknown value `foo`",
+        "",
+    );
+}
+
+#[test]
+fn duration_twice_is_an_error_like_rate_twice() {
+    let d = first_error("duration 1s\nduration 2s\n");
+    check(
+        &d,
+        ErrorKind::DuplicateName,
+        2,
+        1,
+        "`duration` is set twice (first at line 1)",
+        "",
+    );
+    let d = first_error("rate 44100\nrate 48000\n");
+    check(
+        &d,
+        ErrorKind::DuplicateName,
+        2,
+        1,
+        "`rate` is set twice (first at line 1)",
+        "",
+    );
+}

@@ -206,7 +206,11 @@ fn generators_make_the_documented_names_and_shapes() {
 #[test]
 fn signals_from_files_and_generators() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("f.csv"), "force\n0.5\n-0.25\n1e-3\n").unwrap();
+    std::fs::write(
+        dir.path().join("f.csv"),
+        "# made by hand\nforce\n0.5\n-0.25\n1e-3\n",
+    )
+    .unwrap();
     let spec = hound::WavSpec {
         channels: 2,
         sample_rate: 44100,
@@ -233,4 +237,58 @@ fn signals_from_files_and_generators() {
     let x = render(&imp, 50);
     assert_eq!(x[44], 0.0); // the force arrives at sample 44 (1 ms = 44.1 samples, rounded)
     assert_eq!(x[45], 2.0);
+}
+
+#[test]
+fn fft_of_a_struck_string_peaks_at_its_exact_discrete_modes() {
+    // A fixed-fixed chain of n unit masses and springs K has the eigenvalues of M^-1 K
+    // lambda_j = 4 K sin^2(j pi / (2 (n + 1))), and the scheme rings at
+    // f_j = (Fs / pi) asin(sqrt(lambda_j) / 2) (FORMALISM.md), not at the continuous-time value.
+    let (n, k, fs) = (12usize, 0.3, 44100.0);
+    let m = load(&format!(
+        "duration 65536\nstring s n={n} M=1 K={k} ends=fixed,fixed\nenf hit s[0] signal=impulse(at=0, amp=1)\nsox o s[0]\n"
+    ));
+    let x = render(&m, 65536);
+    let len = x.len();
+    let mut buf: Vec<rustfft::num_complex::Complex<f64>> = x
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let w = 0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / len as f64).cos();
+            rustfft::num_complex::Complex::new(v * w, 0.0)
+        })
+        .collect();
+    rustfft::FftPlanner::new()
+        .plan_fft_forward(len)
+        .process(&mut buf);
+    let mag: Vec<f64> = buf[..len / 2]
+        .iter()
+        .map(|c| c.norm().max(1e-300).ln())
+        .collect();
+    let bin_hz = fs / len as f64;
+    for j in 1..=n {
+        let a = j as f64 * std::f64::consts::PI / (2.0 * (n + 1) as f64);
+        let lambda = 4.0 * k * a.sin().powi(2);
+        let f = fs / std::f64::consts::PI * (lambda.sqrt() / 2.0).asin();
+        // the local maximum near f, refined by a parabola through the log magnitudes
+        let c = (f / bin_hz).round() as usize;
+        let i = (c - 3..=c + 3)
+            .max_by(|&p, &q| mag[p].total_cmp(&mag[q]))
+            .unwrap();
+        let (l, mid, r) = (mag[i - 1], mag[i], mag[i + 1]);
+        let peak = (i as f64 + 0.5 * (l - r) / (l - 2.0 * mid + r)) * bin_hz;
+        // Hann-windowed parabolic interpolation is good to a few hundredths of a bin here.
+        assert!(
+            (peak - f).abs() < 0.05 * bin_hz,
+            "mode {j}: predicted {f:.4} Hz, FFT peak {peak:.4} Hz"
+        );
+        // and the continuous-time formula would be visibly off for the high modes
+        let continuous = fs / std::f64::consts::TAU * lambda.sqrt();
+        if j == n {
+            assert!(
+                (continuous - f).abs() > 100.0 * bin_hz,
+                "{continuous} vs {f}"
+            );
+        }
+    }
 }

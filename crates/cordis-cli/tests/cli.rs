@@ -1,0 +1,499 @@
+//! The `cordis` binary as a black box, run in temporary folders (STYLE.md practice 10).
+#![allow(clippy::unwrap_used)] // tests may panic on failure
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+struct Run {
+    code: i32,
+    stdout: String,
+    stderr: String,
+}
+
+fn cordis(dir: &Path, args: &[&str]) -> Run {
+    let out: Output = Command::new(env!("CARGO_BIN_EXE_cordis"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .unwrap();
+    Run {
+        code: out.status.code().unwrap_or(-1),
+        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+    }
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// Asserts a run's exit code, printing its output when it differs.
+macro_rules! expect_code {
+    ($run:expr, $code:expr) => {{
+        let r = &$run;
+        assert_eq!(
+            r.code, $code,
+            "exit code\n--- stdout\n{}\n--- stderr\n{}",
+            r.stdout, r.stderr
+        );
+    }};
+}
+
+const OSC: &str = "rate 44100\nduration 100ms\nlet k = 0.01\ncel c M=1 f=441Hz tau=1s X0=1\nsol g\nmas m M=1\nref r g m K=k Z=1e-4\nenf hit m signal=impulse(at=0, amp=0.5)\nsox pos c\nsox pm m\nsof force r\n";
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn renders_a_wav_with_the_right_header_length_and_peak() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "osc.cordis", OSC);
+    let r = cordis(
+        dir.path(),
+        &["render", "osc.cordis", "-o", "out.wav", "--normalize"],
+    );
+    expect_code!(r, 0);
+    let mut rd = hound::WavReader::open(dir.path().join("out.wav")).unwrap();
+    let spec = rd.spec();
+    assert_eq!(
+        (spec.channels, spec.sample_rate, spec.bits_per_sample),
+        (3, 44100, 32)
+    );
+    assert_eq!(spec.sample_format, hound::SampleFormat::Float);
+    assert_eq!(rd.duration(), 4410);
+    let samples: Vec<f32> = rd.samples::<f32>().map(Result::unwrap).collect();
+    let peak = samples.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    assert_eq!(peak, 1.0);
+    assert!(r.stderr.contains("normalized"), "{}", r.stderr);
+    // 16- and 24-bit integer WAV
+    for (fmt, bits) in [("i16", 16), ("i24", 24)] {
+        let r = cordis(
+            dir.path(),
+            &[
+                "render",
+                "osc.cordis",
+                "-o",
+                "int.wav",
+                "--normalize",
+                "--sample-format",
+                fmt,
+            ],
+        );
+        expect_code!(r, 0);
+        let rd = hound::WavReader::open(dir.path().join("int.wav")).unwrap();
+        assert_eq!(rd.spec().bits_per_sample, bits);
+        assert_eq!(rd.duration(), 4410);
+    }
+}
+
+#[test]
+fn csv_and_f64_hold_the_exact_samples() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "osc.cordis", OSC);
+    expect_code!(
+        cordis(dir.path(), &["render", "osc.cordis", "-o", "a.csv"]),
+        0
+    );
+    expect_code!(
+        cordis(dir.path(), &["render", "osc.cordis", "-o", "a.f64"]),
+        0
+    );
+    let csv = std::fs::read_to_string(dir.path().join("a.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("pos,pm,force"));
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 4410);
+    let raw = std::fs::read(dir.path().join("a.f64")).unwrap();
+    assert_eq!(raw.len(), 4410 * 3 * 8);
+    let f: Vec<f64> = raw
+        .chunks(8)
+        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+        .collect();
+    // 17 significant digits round-trip exactly
+    for (i, row) in rows.iter().enumerate() {
+        for (c, v) in row.iter().enumerate() {
+            assert_eq!(v.to_bits(), f[i * 3 + c].to_bits(), "row {i} col {c}");
+        }
+    }
+    assert_eq!(rows[0][0], 1.0); // sample 0 of a sox is X0
+    assert_eq!(rows[1][1], 0.5); // the impulse moved the unit mass by F/M
+}
+
+#[test]
+fn command_line_overrides_duration_rate_and_lets() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "osc.cordis", OSC);
+    let r = cordis(
+        dir.path(),
+        &[
+            "render",
+            "osc.cordis",
+            "-o",
+            "a.f64",
+            "--duration",
+            "10",
+            "--rate",
+            "48kHz",
+            "--set",
+            "k=0.02",
+        ],
+    );
+    expect_code!(r, 0);
+    assert_eq!(
+        std::fs::metadata(dir.path().join("a.f64")).unwrap().len(),
+        10 * 3 * 8
+    );
+    let r = cordis(
+        dir.path(),
+        &["check", "osc.cordis", "--rate", "48000", "--duration", "1s"],
+    );
+    expect_code!(r, 0);
+    assert!(r.stdout.contains("rate          48000 Hz"), "{}", r.stdout);
+    assert!(r.stdout.contains("48000 samples"), "{}", r.stdout);
+    let r = cordis(dir.path(), &["check", "osc.cordis", "--set", "kk=1"]);
+    expect_code!(r, 1);
+    assert!(r.stderr.contains("did you mean `k`?"), "{}", r.stderr);
+}
+
+#[test]
+fn integer_wav_clipping_is_refused_unless_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "loud.cordis",
+        "duration 100\ncel c M=1 K=0.01 X0=2\nsox o c\n",
+    );
+    let r = cordis(
+        dir.path(),
+        &[
+            "render",
+            "loud.cordis",
+            "-o",
+            "x.wav",
+            "--sample-format",
+            "i16",
+        ],
+    );
+    expect_code!(r, 4);
+    assert!(r.stderr.contains("would clip"), "{}", r.stderr);
+    assert_eq!(files_in(dir.path()), ["loud.cordis"]);
+    let r = cordis(
+        dir.path(),
+        &[
+            "render",
+            "loud.cordis",
+            "-o",
+            "x.wav",
+            "--sample-format",
+            "i16",
+            "--allow-clipping",
+        ],
+    );
+    expect_code!(r, 0);
+    assert!(r.stderr.contains("clipped"), "{}", r.stderr);
+    // float WAV: written, with a loud warning
+    let r = cordis(dir.path(), &["render", "loud.cordis", "-o", "f.wav"]);
+    expect_code!(r, 0);
+    assert!(
+        r.stderr.contains("WARNING") && r.stderr.contains("--normalize"),
+        "{}",
+        r.stderr
+    );
+}
+
+#[test]
+fn a_blow_up_names_the_module_and_time_and_leaves_no_file() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "boom.cordis",
+        "duration 1s\nsol g\nmas quiet M=1\nmas hot M=1 X0=1\nres spring g hot K=5\nsox o hot\n",
+    );
+    let r = cordis(dir.path(), &["render", "boom.cordis", "-o", "boom.wav"]);
+    expect_code!(r, 3);
+    assert!(
+        r.stderr.contains("`hot` (mas, declared at boom.cordis:4)"),
+        "{}",
+        r.stderr
+    );
+    assert!(r.stderr.contains("non-finite at sample"), "{}", r.stderr);
+    assert!(r.stderr.contains("spring (res)"), "{}", r.stderr);
+    assert!(r.stderr.contains("K/M < 4"), "{}", r.stderr);
+    assert_eq!(
+        files_in(dir.path()),
+        ["boom.cordis"],
+        "no output, no partial file"
+    );
+    // check says so before rendering, naming the module
+    let r = cordis(dir.path(), &["check", "boom.cordis"]);
+    expect_code!(r, 3);
+    assert!(
+        r.stdout.contains("UNSTABLE") && r.stdout.contains("at fault: hot"),
+        "{}",
+        r.stdout
+    );
+}
+
+#[test]
+fn invalid_models_print_file_line_column_and_hint() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "bad.cordis",
+        "mas m1 M=1\nsol g\nref r g m2 K=0.1\n",
+    );
+    let r = cordis(dir.path(), &["render", "bad.cordis", "-o", "x.wav"]);
+    expect_code!(r, 1);
+    assert!(r.stderr.contains("bad.cordis:3:9"), "{}", r.stderr);
+    assert!(r.stderr.contains("no module is named `m2`"), "{}", r.stderr);
+    assert!(r.stderr.contains("did you mean `m1`?"), "{}", r.stderr);
+    assert_eq!(files_in(dir.path()), ["bad.cordis"]);
+    let r = cordis(dir.path(), &["check", "missing.cordis"]);
+    expect_code!(r, 1);
+    assert!(
+        r.stderr.contains("cannot read the model file"),
+        "{}",
+        r.stderr
+    );
+    // a model with no outputs renders nothing
+    write(dir.path(), "mute.cordis", "mas m M=1\n");
+    let r = cordis(dir.path(), &["render", "mute.cordis", "-o", "x.wav"]);
+    expect_code!(r, 1);
+    assert!(r.stderr.contains("no outputs"), "{}", r.stderr);
+}
+
+#[test]
+fn usage_errors_exit_2_and_help_has_examples() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "osc.cordis", OSC);
+    expect_code!(
+        cordis(dir.path(), &["render", "osc.cordis", "--frobnicate"]),
+        2
+    );
+    let r = cordis(dir.path(), &["render", "osc.cordis", "-o", "out.mp3"]);
+    expect_code!(r, 2);
+    assert!(r.stderr.contains(".wav, .csv or .f64"), "{}", r.stderr);
+    expect_code!(
+        cordis(dir.path(), &["render", "osc.cordis", "--set", "novalue"]),
+        2
+    );
+    for cmd in ["render", "check"] {
+        let r = cordis(dir.path(), &[cmd, "--help"]);
+        expect_code!(r, 0);
+        assert!(
+            r.stdout.contains("Examples:") && r.stdout.contains("Exit codes"),
+            "{}",
+            r.stdout
+        );
+    }
+    let r = cordis(dir.path(), &["--help"]);
+    assert!(r.stdout.contains("Exit codes"), "{}", r.stdout);
+}
+
+#[test]
+fn no_progress_bar_when_stderr_is_not_a_terminal() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "long.cordis",
+        "duration 5s\nstring s n=200 M=1 K=0.1 Z=1e-4 pluck=(50, 1)\nsox o s[10]\n",
+    );
+    let r = cordis(dir.path(), &["render", "long.cordis", "-o", "x.f64"]);
+    expect_code!(r, 0);
+    assert!(!r.stderr.contains("rendering ["), "{}", r.stderr);
+    assert_eq!(r.stderr.lines().count(), 1, "{}", r.stderr);
+}
+
+#[test]
+fn check_reports_counts_and_verdicts() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "osc.cordis", OSC);
+    let r = cordis(dir.path(), &["check", "osc.cordis"]);
+    expect_code!(r, 0);
+    for needle in [
+        "materials     3: 1 mas, 1 cel, 1 sol, 0 enx",
+        "interactions  1: 0 res, 0 fro, 1 ref, 0 but, 0 lnl",
+        "inputs        1 enf",
+        "outputs       3: pos (sox c), pm (sox m), force (sof r)",
+        "stability: stable",
+        "cel c:",
+        "largest eigenvalue of M^-1 K = 0.010000",
+    ] {
+        assert!(
+            r.stdout.contains(needle),
+            "missing {needle:?} in\n{}",
+            r.stdout
+        );
+    }
+    write(dir.path(), "hot.cordis", "cel c M=1 K=3.9 Z=0.1\nsox o c\n");
+    let r = cordis(dir.path(), &["check", "hot.cordis"]);
+    expect_code!(r, 3);
+    assert!(
+        r.stdout.contains("cel c:") && r.stdout.contains("UNSTABLE"),
+        "{}",
+        r.stdout
+    );
+}
+
+/// Golden renders: small models rendered to CSV and compared with `tests/data/golden/NAME.csv`
+/// within a tolerance of 1e-12 of each channel's peak (renders are bit-exact on one machine; the
+/// tolerance leaves room for another platform's `sin`). Regenerate with `CORDIS_BLESS=1`.
+#[test]
+fn golden_renders() {
+    let golden = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/golden");
+    let mut checked = 0;
+    for entry in std::fs::read_dir(&golden).unwrap() {
+        let model = entry.unwrap().path();
+        if model.extension().and_then(|e| e.to_str()) != Some("cordis") {
+            continue;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("out.csv");
+        let r = cordis(
+            dir.path(),
+            &[
+                "render",
+                model.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+            ],
+        );
+        expect_code!(r, 0);
+        let expected_path = model.with_extension("csv");
+        if std::env::var_os("CORDIS_BLESS").is_some() {
+            std::fs::copy(&out, &expected_path).unwrap();
+        }
+        let parse = |p: &Path| -> (String, Vec<Vec<f64>>) {
+            let text = std::fs::read_to_string(p)
+                .unwrap_or_else(|e| panic!("{}: {e} (bless with CORDIS_BLESS=1)", p.display()));
+            let mut lines = text.lines();
+            let header = lines.next().unwrap().to_string();
+            (
+                header,
+                lines
+                    .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+                    .collect(),
+            )
+        };
+        let (h_got, got) = parse(&out);
+        let (h_exp, exp) = parse(&expected_path);
+        assert_eq!(h_got, h_exp);
+        assert_eq!(got.len(), exp.len());
+        let channels = exp[0].len();
+        for c in 0..channels {
+            let peak = exp
+                .iter()
+                .fold(0.0f64, |m, r| m.max(r[c].abs()))
+                .max(f64::MIN_POSITIVE);
+            let (mut worst, mut failing) = (0.0f64, 0usize);
+            for (g, e) in got.iter().zip(&exp) {
+                let d = (g[c] - e[c]).abs() / peak;
+                worst = worst.max(d);
+                failing += usize::from(d > 1e-12);
+            }
+            assert_eq!(
+                failing,
+                0,
+                "{}: channel {c}: {failing} samples off, worst {worst:.3e} of peak",
+                model.display()
+            );
+        }
+        checked += 1;
+    }
+    assert!(checked >= 1, "no golden models found");
+}
+
+/// Every example in `examples/` checks, and renders a short excerpt to WAV.
+#[test]
+fn examples_check_and_render() {
+    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+    let mut n = 0;
+    for entry in std::fs::read_dir(&examples).unwrap() {
+        let model = entry.unwrap().path();
+        if model.extension().and_then(|e| e.to_str()) != Some("cordis") {
+            continue;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let m = model.to_str().unwrap();
+        let r = cordis(dir.path(), &["check", m]);
+        expect_code!(r, 0);
+        let r = cordis(
+            dir.path(),
+            &[
+                "render",
+                m,
+                "-o",
+                "x.wav",
+                "--duration",
+                "300ms",
+                "--normalize",
+            ],
+        );
+        expect_code!(r, 0);
+        n += 1;
+    }
+    assert!(n >= 5, "expected the five examples, found {n}");
+}
+
+#[test]
+fn check_into_a_closed_pipe_does_not_panic() {
+    use std::io::Read;
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "osc.cordis", OSC);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_cordis"))
+        .current_dir(dir.path())
+        .args(["check", "osc.cordis"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take()); // the reader goes away at once, as `| head -0` would
+    let status = child.wait().unwrap();
+    let mut err = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(status.code(), Some(0), "{err}");
+}
+
+/// The model of the README's tour checks and renders.
+#[test]
+fn the_readme_tour_model_works() {
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../README.md"))
+            .unwrap();
+    let tour = readme.split("## A short tour").nth(1).unwrap();
+    let model = tour.split("```").nth(1).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "tour.cordis", model);
+    expect_code!(cordis(dir.path(), &["check", "tour.cordis"]), 0);
+    expect_code!(
+        cordis(
+            dir.path(),
+            &[
+                "render",
+                "tour.cordis",
+                "-o",
+                "t.wav",
+                "--duration",
+                "200ms",
+                "--normalize"
+            ]
+        ),
+        0
+    );
+}
