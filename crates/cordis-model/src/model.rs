@@ -696,35 +696,41 @@ impl<'a> Builder<'a> {
 
     // ---- values --------------------------------------------------------------------------------
 
-    fn num(
-        &self,
-        p: &mut Params,
-        key: &'static str,
-        aliases: &[&'static str],
-        kind: Kind,
-        default: Option<f64>,
-    ) -> R<f64> {
-        match p.get(key, aliases)? {
+    /// An optional number of kind `kind`, `default` when absent.
+    fn num(&self, p: &mut Params, key: &'static str, kind: Kind, default: f64) -> R<f64> {
+        match p.get(key, &[])? {
             Some(param) => self.env.number(&param.value, kind, key),
-            None => default.ok_or_else(|| {
-                Diagnostic::error(
-                    ErrorKind::MissingParameter,
-                    None,
-                    format!("`{key}` is required"),
-                )
-            }),
+            None => Ok(default),
         }
     }
 
-    fn positive(&self, p: &mut Params, key: &'static str, span: Span) -> R<f64> {
-        let param = p.get(key, &[])?.ok_or_else(|| {
+    /// A parameter the statement cannot do without.
+    fn required<'p>(
+        &self,
+        p: &mut Params<'p>,
+        key: &'static str,
+        span: Span,
+        what: &str,
+        hint: String,
+    ) -> R<&'p Param> {
+        p.get(key, &[])?.ok_or_else(|| {
             Diagnostic::error(
                 ErrorKind::MissingParameter,
                 span,
-                format!("the inertia `{key}` is required"),
+                format!("{what}`{key}` is required"),
             )
-            .with_hint(format!("write for example {key}=1"))
-        })?;
+            .with_hint(hint)
+        })
+    }
+
+    fn positive(&self, p: &mut Params, key: &'static str, span: Span) -> R<f64> {
+        let param = self.required(
+            p,
+            key,
+            span,
+            "the inertia ",
+            format!("write for example {key}=1"),
+        )?;
         let v = self.env.number(&param.value, Kind::Plain, key)?;
         if !(v > 0.0) {
             return Err(Diagnostic::error(
@@ -835,13 +841,13 @@ impl<'a> Builder<'a> {
         match k {
             "mas" => {
                 let m = self.positive(&mut p, "M", span)?;
-                let x0 = self.num(&mut p, "X0", &[], Kind::Plain, Some(0.0))?;
-                let v0 = self.num(&mut p, "V0", &[], Kind::Velocity, Some(0.0))?;
+                let x0 = self.num(&mut p, "X0", Kind::Plain, 0.0)?;
+                let v0 = self.num(&mut p, "V0", Kind::Velocity, 0.0)?;
                 p.finish(&what)?;
                 self.add_mat(nm(), Material::Mas { m, x0, v0 }, span)?;
             }
             "sol" => {
-                let x0 = self.num(&mut p, "X0", &[], Kind::Plain, Some(0.0))?;
+                let x0 = self.num(&mut p, "X0", Kind::Plain, 0.0)?;
                 p.finish(&what)?;
                 self.add_mat(nm(), Material::Sol { x0 }, span)?;
             }
@@ -902,9 +908,9 @@ impl<'a> Builder<'a> {
                     };
                     (kk, zz)
                 };
-                let x0 = self.num(&mut p, "X0", &[], Kind::Plain, Some(0.0))?;
-                let v0 = self.num(&mut p, "V0", &[], Kind::Velocity, Some(0.0))?;
-                let r = self.num(&mut p, "R", &[], Kind::Plain, Some(0.0))?;
+                let x0 = self.num(&mut p, "X0", Kind::Plain, 0.0)?;
+                let v0 = self.num(&mut p, "V0", Kind::Velocity, 0.0)?;
+                let r = self.num(&mut p, "R", Kind::Plain, 0.0)?;
                 p.finish(&what)?;
                 self.add_mat(
                     nm(),
@@ -945,13 +951,13 @@ impl<'a> Builder<'a> {
                         let kk = self.req(&mut p, "K", Kind::Stiffness, span)?;
                         Interaction::Ref {
                             k: kk,
-                            z: self.num(&mut p, "Z", &[], Kind::Viscosity, Some(0.0))?,
+                            z: self.num(&mut p, "Z", Kind::Viscosity, 0.0)?,
                         }
                     }
                     "but" => {
-                        let kk = self.num(&mut p, "K", &[], Kind::Stiffness, Some(0.0))?;
-                        let zz = self.num(&mut p, "Z", &[], Kind::Viscosity, Some(0.0))?;
-                        let s = self.num(&mut p, "S", &[], Kind::Plain, Some(0.0))?;
+                        let kk = self.num(&mut p, "K", Kind::Stiffness, 0.0)?;
+                        let zz = self.num(&mut p, "Z", Kind::Viscosity, 0.0)?;
+                        let s = self.num(&mut p, "S", Kind::Plain, 0.0)?;
                         Interaction::But { k: kk, z: zz, s }
                     }
                     _ => {
@@ -1057,15 +1063,8 @@ impl<'a> Builder<'a> {
     }
 
     fn req(&self, p: &mut Params, key: &'static str, kind: Kind, span: Span) -> R<f64> {
-        match p.get(key, &[])? {
-            Some(x) => self.env.number(&x.value, kind, key),
-            None => Err(Diagnostic::error(
-                ErrorKind::MissingParameter,
-                span,
-                format!("`{key}` is required"),
-            )
-            .with_hint(format!("add {key}=VALUE"))),
-        }
+        let param = self.required(p, key, span, "", format!("add {key}=VALUE"))?;
+        self.env.number(&param.value, kind, key)
     }
 
     fn words(&self, e: &Expr) -> R<Vec<(String, Span)>> {
@@ -1103,14 +1102,7 @@ impl<'a> Builder<'a> {
     }
 
     fn count(&self, p: &mut Params, key: &'static str, span: Span) -> R<usize> {
-        let param = p.get(key, &[])?.ok_or_else(|| {
-            Diagnostic::error(
-                ErrorKind::MissingParameter,
-                span,
-                format!("`{key}` is required"),
-            )
-            .with_hint(format!("add {key}=NUMBER"))
-        })?;
+        let param = self.required(p, key, span, "", format!("add {key}=NUMBER"))?;
         let v = self.env.number(&param.value, Kind::Plain, key)?;
         if v.fract() != 0.0 || v < 1.0 {
             return Err(Diagnostic::error(
@@ -1151,7 +1143,7 @@ impl<'a> Builder<'a> {
         let n = self.count(p, "n", span)?;
         let m = self.positive(p, "M", span)?;
         let k = self.req(p, "K", Kind::Stiffness, span)?;
-        let z = self.num(p, "Z", &[], Kind::Viscosity, Some(0.0))?;
+        let z = self.num(p, "Z", Kind::Viscosity, 0.0)?;
         let ends = match p.get("ends", &["end"])? {
             Some(x) => {
                 let w = self.words(&x.value)?;
@@ -1234,7 +1226,7 @@ impl<'a> Builder<'a> {
         let cols = self.count(p, "cols", span)?;
         let m = self.positive(p, "M", span)?;
         let k = self.req(p, "K", Kind::Stiffness, span)?;
-        let z = self.num(p, "Z", &[], Kind::Viscosity, Some(0.0))?;
+        let z = self.num(p, "Z", Kind::Viscosity, 0.0)?;
         let fixed = match p.get("border", &[])? {
             Some(x) => {
                 let w = self.words(&x.value)?;

@@ -592,7 +592,8 @@ impl Parser<'_> {
         })
     }
 
-    fn expr(&mut self) -> Result<Expr, Diagnostic> {
+    /// One level deeper into an expression; refused past `MAX_DEPTH` (no stack overflow).
+    fn deeper(&mut self) -> Result<(), Diagnostic> {
         self.depth += 1;
         if self.depth > MAX_DEPTH {
             return Err(Diagnostic::error(
@@ -604,6 +605,11 @@ impl Parser<'_> {
                 "at most {MAX_DEPTH} levels of parentheses and operators"
             )));
         }
+        Ok(())
+    }
+
+    fn expr(&mut self) -> Result<Expr, Diagnostic> {
+        self.deeper()?;
         let r = self.binary(0);
         self.depth -= 1;
         r
@@ -634,14 +640,7 @@ impl Parser<'_> {
                 break;
             }
             self.pos += 1;
-            self.depth += 1;
-            if self.depth > MAX_DEPTH {
-                return Err(Diagnostic::error(
-                    ErrorKind::Limit,
-                    self.here(),
-                    "expression nested too deeply",
-                ));
-            }
+            self.deeper()?;
             let rhs = if right_assoc {
                 self.binary_pow_rhs()?
             } else {
@@ -667,14 +666,7 @@ impl Parser<'_> {
             let neg = self.peek_sym('-');
             let start = self.here();
             self.pos += 1;
-            self.depth += 1;
-            if self.depth > MAX_DEPTH {
-                return Err(Diagnostic::error(
-                    ErrorKind::Limit,
-                    self.here(),
-                    "expression nested too deeply",
-                ));
-            }
+            self.deeper()?;
             let inner = self.binary(3)?;
             self.depth -= 1;
             let span = start.to(inner.span);
