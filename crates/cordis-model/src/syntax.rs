@@ -618,22 +618,12 @@ impl Parser<'_> {
     fn binary(&mut self, min_prec: u8) -> Result<Expr, Diagnostic> {
         let mut lhs = self.unary()?;
         loop {
-            let (op, prec, right_assoc) = match self.peek() {
-                Some(Token {
-                    tok: Tok::Sym('+'), ..
-                }) => (BinOp::Add, 1, false),
-                Some(Token {
-                    tok: Tok::Sym('-'), ..
-                }) => (BinOp::Sub, 1, false),
-                Some(Token {
-                    tok: Tok::Sym('*'), ..
-                }) => (BinOp::Mul, 2, false),
-                Some(Token {
-                    tok: Tok::Sym('/'), ..
-                }) => (BinOp::Div, 2, false),
-                Some(Token {
-                    tok: Tok::Sym('^'), ..
-                }) => (BinOp::Pow, 4, true),
+            let (op, prec, right_assoc) = match self.peek().map(|t| &t.tok) {
+                Some(Tok::Sym('+')) => (BinOp::Add, 1, false),
+                Some(Tok::Sym('-')) => (BinOp::Sub, 1, false),
+                Some(Tok::Sym('*')) => (BinOp::Mul, 2, false),
+                Some(Tok::Sym('/')) => (BinOp::Div, 2, false),
+                Some(Tok::Sym('^')) => (BinOp::Pow, 4, true),
                 _ => break,
             };
             if prec < min_prec {
