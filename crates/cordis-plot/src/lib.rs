@@ -1,0 +1,4 @@
+//! # cordis-plot: pictures of renders
+//!
+//! Placeholder: being written.
+#![warn(missing_docs)]
