@@ -17,6 +17,8 @@ pub struct Curve {
     /// `(y[i+1] - y[i]) / (x[i+1] - x[i])`, computed once (the same division, so the same bits as
     /// computing it at every evaluation); unused for jumps.
     slopes: Vec<f64>,
+    /// `∫ from x[0] to x[i]` of the curve (trapezoids; a jump has no width), for the antiderivative.
+    cumulative: Vec<f64>,
 }
 
 /// Why a list of points is not a curve.
@@ -65,7 +67,7 @@ impl Curve {
                 return Err(CurveError::Decreasing { index });
             }
         }
-        let slopes = points
+        let slopes: Vec<f64> = points
             .windows(2)
             .map(|w| {
                 if w[1].0 > w[0].0 {
@@ -75,10 +77,20 @@ impl Curve {
                 }
             })
             .collect();
+        let mut cumulative = Vec::with_capacity(points.len());
+        let mut acc = 0.0;
+        for (i, p) in points.iter().enumerate() {
+            if i > 0 {
+                let q = points[i - 1];
+                acc += 0.5 * (q.1 + p.1) * (p.0 - q.0);
+            }
+            cumulative.push(acc);
+        }
         Ok(Curve {
             xs: points.iter().map(|p| p.0).collect(),
             ys: points.iter().map(|p| p.1).collect(),
             slopes,
+            cumulative,
         })
     }
 
@@ -141,31 +153,27 @@ impl Curve {
         best
     }
 
-    /// The integral of the curve from 0 to `x` (potential energy of an LNL spring curve).
-    pub fn integral_from_zero(&self, x: f64) -> f64 {
-        // Integrate piecewise; evaluate on the breakpoints between 0 and x.
-        let (lo, hi, sign) = if x >= 0.0 {
-            (0.0, x, 1.0)
-        } else {
-            (x, 0.0, -1.0)
-        };
-        let mut cuts: Vec<f64> = vec![lo];
-        cuts.extend(self.xs.iter().copied().filter(|&a| a > lo && a < hi));
-        cuts.push(hi);
-        let mut sum = 0.0;
-        for w in cuts.windows(2) {
-            let (a, b) = (w[0], w[1]);
-            if b > a {
-                // linear on (a, b): use values just inside the segment
-                let mid = 0.5 * (a + b);
-                let s = self.slope(mid);
-                let ym = self.eval(mid);
-                let ya = ym - s * (mid - a);
-                let yb = ym + s * (b - mid);
-                sum += 0.5 * (ya + yb) * (b - a);
-            }
+    /// An antiderivative: `∫ from x[0] to x` of the curve (constant extensions included).
+    pub fn antiderivative(&self, x: f64) -> f64 {
+        let n = self.xs.len();
+        if n == 0 {
+            return 0.0;
         }
-        sign * sum
+        let count = self.xs.partition_point(|&a| a <= x);
+        if count == 0 {
+            return self.ys[0] * (x - self.xs[0]);
+        }
+        let i = count - 1;
+        let t = x - self.xs[i];
+        if i == n - 1 {
+            return self.cumulative[i] + self.ys[i] * t;
+        }
+        self.cumulative[i] + t * (self.ys[i] + 0.5 * self.slopes[i] * t)
+    }
+
+    /// `∫ from 0 to x` of the curve: the potential energy of an LNL elastic curve at elongation `x`.
+    pub fn integral_from_zero(&self, x: f64) -> f64 {
+        self.antiderivative(x) - self.antiderivative(0.0)
     }
 }
 
@@ -205,5 +213,44 @@ mod tests {
         for &d in &[-0.7, 0.0, 0.3, 0.9] {
             assert!((c.integral_from_zero(d) - d * d).abs() < 1e-15);
         }
+        // beyond the points the force stays at 2: U(1.5) = 1 + 2 * 0.5
+        assert!((c.integral_from_zero(1.5) - 2.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn integral_of_the_sticking_curve() {
+        let (k, s) = (0.1, 0.5);
+        let c = Curve::new(&[(-s, 0.0), (-s, -k * s), (s, k * s), (s, 0.0)]).unwrap();
+        for &d in &[-0.4, -0.1, 0.0, 0.2, 0.49] {
+            assert!(
+                (c.integral_from_zero(d) - 0.5 * k * d * d).abs() < 1e-15,
+                "{d}"
+            );
+        }
+        // outside the threshold the force is 0: the integral stays at 1/2 k s^2
+        for &d in &[-3.0, 0.7, 9.0] {
+            assert!(
+                (c.integral_from_zero(d) - 0.5 * k * s * s).abs() < 1e-15,
+                "{d}"
+            );
+        }
+    }
+
+    #[test]
+    fn antiderivative_matches_a_fine_riemann_sum() {
+        let c = Curve::new(&[
+            (-1.0, 0.5),
+            (-0.5, -0.5),
+            (-0.5, 0.2),
+            (0.3, 0.9),
+            (2.0, -1.0),
+        ])
+        .unwrap();
+        let (a, b) = (-2.0, 3.0);
+        let n = 200_000;
+        let h = (b - a) / n as f64;
+        let sum: f64 = (0..n).map(|i| c.eval(a + (i as f64 + 0.5) * h) * h).sum();
+        let exact = c.antiderivative(b) - c.antiderivative(a);
+        assert!((sum - exact).abs() < 1e-6, "{sum} vs {exact}");
     }
 }

@@ -1,6 +1,6 @@
 //! The stepping side: a network compiled into dense struct-of-arrays state.
 
-use crate::{Curve, Interaction, LinkId, MatId, Material, Network, Output, Signal};
+use crate::{Curve, Interaction, LinkId, MatId, Material, Network, Output, Probe, Signal};
 
 /// The law of a run of consecutive links (in declaration order) that share it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -32,6 +32,46 @@ struct Cel {
 enum Channel {
     Position(u32),
     Force(u32),
+    /// terms `start..end` of `Engine::sum_terms`
+    Sum(usize, usize),
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Term {
+    Position(u32),
+    Force(u32),
+}
+
+/// The state right after step `n`, as an observer sees it (see [`Engine::process_observed`]).
+#[derive(Clone, Copy, Debug)]
+pub struct StepView<'a> {
+    n: u64,
+    slot: &'a [u32],
+    x: &'a [f64],
+    xp: &'a [f64],
+    lf: &'a [f64],
+}
+
+impl StepView<'_> {
+    /// The step just computed.
+    pub fn step(&self) -> u64 {
+        self.n
+    }
+
+    /// `x(n)`: the position the interactions of step `n` saw.
+    pub fn position(&self, m: MatId) -> f64 {
+        self.xp[self.slot[m.index()] as usize]
+    }
+
+    /// `x(n+1)`: the position step `n` computed.
+    pub fn next_position(&self, m: MatId) -> f64 {
+        self.x[self.slot[m.index()] as usize]
+    }
+
+    /// `f(n)` of an interaction.
+    pub fn link_force(&self, l: LinkId) -> f64 {
+        self.lf[l.index()]
+    }
 }
 
 /// Where and when a simulation blew up.
@@ -104,6 +144,7 @@ pub struct Engine {
     enf_slot: Vec<u32>,
     enf: Vec<Signal>,
     channels: Vec<Channel>,
+    sum_terms: Vec<(f64, Term)>,
     // blow-up handling
     snap_x: Vec<f64>,
     snap_xp: Vec<f64>,
@@ -156,6 +197,7 @@ impl Engine {
             enf_slot: Vec::new(),
             enf: Vec::new(),
             channels: Vec::new(),
+            sum_terms: Vec::new(),
             snap_x: vec![0.0; nm],
             snap_xp: vec![0.0; nm],
             blown: None,
@@ -234,21 +276,32 @@ impl Engine {
         for fi in &net.forces {
             enf_slot.push(slot_of(fi.target));
         }
-        let channels = net
-            .outputs
-            .iter()
-            .map(|o| match *o {
-                Output::Position(m) => Channel::Position(slot_of(m)),
-                Output::Force(l) => {
-                    assert!(
-                        l.index() < net.links.len(),
-                        "output refers to link #{}",
-                        l.0
-                    );
-                    Channel::Force(l.0)
+        let check_link = |l: LinkId| -> u32 {
+            assert!(l.index() < nl, "output refers to link #{} of {nl}", l.0);
+            l.0
+        };
+        let mut sum_terms = Vec::new();
+        let mut channels = Vec::with_capacity(net.outputs.len());
+        for o in &net.outputs {
+            channels.push(match o {
+                Output::Position(m) => Channel::Position(slot_of(*m)),
+                Output::Force(l) => Channel::Force(check_link(*l)),
+                Output::Sum(terms) => {
+                    assert!(!terms.is_empty(), "a sum output needs at least one term");
+                    let start = sum_terms.len();
+                    for &(g, p) in terms {
+                        sum_terms.push((
+                            g,
+                            match p {
+                                Probe::Position(m) => Term::Position(slot_of(m)),
+                                Probe::Force(l) => Term::Force(check_link(l)),
+                            },
+                        ));
+                    }
+                    Channel::Sum(start, sum_terms.len())
                 }
-            })
-            .collect();
+            });
+        }
         (e.runs, e.la, e.lb, e.lk, e.lz, e.ls, e.curves) = (runs, la, lb, lk, lz, ls, curves);
         if e.mas_m.iter().all(|&m| is_power_of_two(m)) {
             e.mas_inv = Some(e.mas_m.iter().map(|m| 1.0 / m).collect());
@@ -256,6 +309,7 @@ impl Engine {
         e.enf_slot = enf_slot;
         e.enf = net.forces.iter().map(|f| f.signal.clone()).collect();
         e.channels = channels;
+        e.sum_terms = sum_terms;
         e.reset();
         e
     }
@@ -311,6 +365,21 @@ impl Engine {
     /// If `out.len() != frames * self.channels()`.
     #[track_caller]
     pub fn process(&mut self, frames: usize, out: &mut [f64]) -> Result<(), BlowUp> {
+        self.process_observed(frames, out, &mut |_: &StepView<'_>| {})
+    }
+
+    /// [`Engine::process`], calling `observe` after every step with a view of the state (for
+    /// event logs and energy meters). With a no-op observer this is exactly `process`.
+    ///
+    /// The observer sees each step once, in order. When a block blows up it has also seen the
+    /// steps of that block up to its end (non-finite values included): discard what it gathered.
+    #[track_caller]
+    pub fn process_observed<O: FnMut(&StepView<'_>)>(
+        &mut self,
+        frames: usize,
+        out: &mut [f64],
+        observe: &mut O,
+    ) -> Result<(), BlowUp> {
         let ch = self.channels.len();
         assert_eq!(
             out.len(),
@@ -328,6 +397,13 @@ impl Engine {
         let n0 = self.n;
         for frame in 0..frames {
             self.step(&mut out[frame * ch..(frame + 1) * ch]);
+            observe(&StepView {
+                n: self.n - 1,
+                slot: &self.slot,
+                x: &self.x,
+                xp: &self.xp,
+                lf: &self.lf,
+            });
         }
         if self.x.iter().all(|v| v.is_finite()) {
             return Ok(());
@@ -442,10 +518,23 @@ impl Engine {
         }
 
         // 3. Outputs record x(n) and f(n).
+        let (x, terms) = (&self.x, &self.sum_terms);
+        let term = |t: &Term| match *t {
+            Term::Position(s) => x[s as usize],
+            Term::Force(l) => lf[l as usize],
+        };
         for (o, c) in frame.iter_mut().zip(&self.channels) {
             *o = match *c {
-                Channel::Position(s) => self.x[s as usize],
+                Channel::Position(s) => x[s as usize],
                 Channel::Force(l) => lf[l as usize],
+                Channel::Sum(a, b) => {
+                    let (g0, t0) = &terms[a];
+                    let mut acc = g0 * term(t0);
+                    for (g, t) in &terms[a + 1..b] {
+                        acc += g * term(t);
+                    }
+                    acc
+                }
             };
         }
 

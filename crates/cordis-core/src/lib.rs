@@ -37,6 +37,6 @@ mod network;
 mod signal;
 
 pub use curve::{Curve, CurveError};
-pub use engine::{BlowUp, Engine};
-pub use network::{ForceInput, Interaction, Link, LinkId, MatId, Material, Network, Output};
+pub use engine::{BlowUp, Engine, StepView};
+pub use network::{ForceInput, Interaction, Link, LinkId, MatId, Material, Network, Output, Probe};
 pub use signal::Signal;

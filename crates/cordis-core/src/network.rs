@@ -189,13 +189,25 @@ pub struct ForceInput {
     pub signal: Signal,
 }
 
-/// A recorder: one output channel.
+/// What a recorder reads: the position of a material module or the force of an interaction.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Probe {
+    /// `x(n)` of a material module.
+    Position(MatId),
+    /// `f(n)` of an interaction.
+    Force(LinkId),
+}
+
+/// A recorder: one output channel.
+#[derive(Clone, Debug, PartialEq)]
 pub enum Output {
     /// SOX: the position `x(n)` of a material module.
     Position(MatId),
     /// SOF: the force `f(n)` of an interaction.
     Force(LinkId),
+    /// A weighted sum of probes, `g1 p1 + g2 p2 + ...`, evaluated left to right starting from
+    /// `g1 p1` (so a single term with gain 1 is exactly its probe).
+    Sum(Vec<(f64, Probe)>),
 }
 
 /// A network under construction: materials, links, force inputs and outputs, in declaration order.
@@ -251,6 +263,23 @@ impl Network {
     pub fn add_position_output(&mut self, m: MatId) -> usize {
         assert!(m.index() < self.materials.len(), "foreign MatId");
         self.outputs.push(Output::Position(m));
+        self.outputs.len() - 1
+    }
+
+    /// Adds a channel recording a weighted sum of positions and forces; returns the channel index.
+    ///
+    /// # Panics
+    /// If `terms` is empty or refers to a module the network does not have.
+    #[track_caller]
+    pub fn add_sum_output(&mut self, terms: Vec<(f64, Probe)>) -> usize {
+        assert!(!terms.is_empty(), "a sum output needs at least one term");
+        for (_, p) in &terms {
+            match p {
+                Probe::Position(m) => assert!(m.index() < self.materials.len(), "foreign MatId"),
+                Probe::Force(l) => assert!(l.index() < self.links.len(), "foreign LinkId"),
+            }
+        }
+        self.outputs.push(Output::Sum(terms));
         self.outputs.len() - 1
     }
 

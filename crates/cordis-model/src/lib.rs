@@ -25,14 +25,18 @@
 // `!(x > 0.0)` is how this crate rejects NaN along with the out-of-range values: intended.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+mod devices;
 mod error;
 pub mod eval;
 mod model;
+mod observe;
 mod signals;
 pub mod stability;
 pub mod syntax;
 
+pub use devices::{critical_z1, sticking_curve, Activity, Device, DeviceKind, Tracked};
 pub use error::{did_you_mean, Diagnostic, ErrorKind, LoadError, Severity, Span};
 pub use model::{
     cel_from_modal, cel_modal, eval_text, load_file, load_str, Limits, Model, Named, Options,
 };
+pub use observe::{EnergyMeter, EnergyRow, Event, EventLog};

@@ -4,8 +4,9 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use cordis_core::{Curve, Engine, Interaction, LinkId, MatId, Material, Network, Signal};
+use cordis_core::{Curve, Engine, Interaction, LinkId, MatId, Material, Network, Probe, Signal};
 
+use crate::devices::{Activity, Device, Tracked};
 use crate::error::{did_you_mean, Diagnostic, ErrorKind, LoadError, Severity, Span};
 use crate::eval::{Env, Kind, Value};
 use crate::signals;
@@ -81,6 +82,11 @@ pub struct Model {
     pub forces: Vec<Named>,
     /// Names of the output channels, in order.
     pub outputs: Vec<Named>,
+    /// Sticking devices (`stick`, `bond`), in declaration order.
+    pub devices: Vec<Device>,
+    /// Links whose activity the event log follows: every BUT, every sticking spring, and every
+    /// LNL declared with `track=yes`, in declaration order of the links.
+    pub tracked: Vec<Tracked>,
     /// Warnings found while loading (never errors: a `Model` has none).
     pub warnings: Vec<Diagnostic>,
 }
@@ -150,12 +156,18 @@ pub fn load_str(path: &Path, text: &str, opts: &Options) -> Result<Model, LoadEr
         links: b.link_names,
         forces: b.force_names,
         outputs: b.output_names,
+        devices: b.devices,
+        tracked: {
+            let mut t = b.tracked;
+            t.sort_by_key(|t| t.link);
+            t
+        },
         warnings: diags,
     })
 }
 
 #[derive(Clone, Copy, Debug)]
-enum Entity {
+pub(crate) enum Entity {
     Mat(MatId),
     Link(LinkId),
     Force,
@@ -163,28 +175,30 @@ enum Entity {
     Group(&'static str),
 }
 
-struct Builder<'a> {
-    path: &'a Path,
-    opts: &'a Options,
-    fs: f64,
-    duration: u64,
-    env: Env,
-    net: Network,
-    names: HashMap<String, (Entity, Span)>,
-    mat_names: Vec<Named>,
-    link_names: Vec<Named>,
-    force_names: Vec<Named>,
-    output_names: Vec<Named>,
-    diags: Vec<Diagnostic>,
-    set_used: Vec<bool>,
+pub(crate) struct Builder<'a> {
+    pub(crate) path: &'a Path,
+    pub(crate) opts: &'a Options,
+    pub(crate) fs: f64,
+    pub(crate) duration: u64,
+    pub(crate) env: Env,
+    pub(crate) net: Network,
+    pub(crate) names: HashMap<String, (Entity, Span)>,
+    pub(crate) mat_names: Vec<Named>,
+    pub(crate) link_names: Vec<Named>,
+    pub(crate) force_names: Vec<Named>,
+    pub(crate) output_names: Vec<Named>,
+    pub(crate) diags: Vec<Diagnostic>,
+    pub(crate) set_used: Vec<bool>,
     /// Names whose declaration failed: references to them are not reported again.
-    poisoned: std::collections::HashSet<String>,
+    pub(crate) poisoned: std::collections::HashSet<String>,
     /// Every name a statement declares, with its line (to say "declared later").
-    declared_at: HashMap<String, usize>,
+    pub(crate) declared_at: HashMap<String, usize>,
+    pub(crate) devices: Vec<Device>,
+    pub(crate) tracked: Vec<Tracked>,
 }
 
 /// The parameters of one statement, taken one by one; what is left over is reported.
-struct Params<'p> {
+pub(crate) struct Params<'p> {
     list: &'p [Param],
     used: Vec<bool>,
     accepted: Vec<&'static str>,
@@ -200,7 +214,7 @@ impl<'p> Params<'p> {
     }
 
     /// The value of `key` (case-insensitive; `aliases` are other accepted spellings).
-    fn get(
+    pub(crate) fn get(
         &mut self,
         key: &'static str,
         aliases: &[&'static str],
@@ -228,7 +242,7 @@ impl<'p> Params<'p> {
     }
 
     /// Reports the parameters nobody took.
-    fn finish(&self, what: &str) -> Result<(), Diagnostic> {
+    pub(crate) fn finish(&self, what: &str) -> Result<(), Diagnostic> {
         for (i, p) in self.list.iter().enumerate() {
             if !self.used[i] {
                 let hint = did_you_mean(&p.key.text, self.accepted.iter().copied())
@@ -245,7 +259,7 @@ impl<'p> Params<'p> {
     }
 }
 
-type R<T> = Result<T, Diagnostic>;
+pub(crate) type R<T> = Result<T, Diagnostic>;
 
 impl<'a> Builder<'a> {
     fn new(path: &'a Path, opts: &'a Options) -> Builder<'a> {
@@ -269,6 +283,8 @@ impl<'a> Builder<'a> {
             set_used: vec![false; opts.sets.len()],
             poisoned: Default::default(),
             declared_at: HashMap::new(),
+            devices: Vec::new(),
+            tracked: Vec::new(),
         }
     }
 
@@ -284,20 +300,8 @@ impl<'a> Builder<'a> {
             return;
         }
         for s in stmts {
-            if let Statement::Module {
-                keyword,
-                refs,
-                span,
-                ..
-            } = s
-            {
-                if keyword.text != "init" {
-                    if let Some((w, idx)) = refs.first().and_then(|r| r.parts.first()) {
-                        if idx.is_empty() {
-                            self.declared_at.entry(w.text.clone()).or_insert(span.line);
-                        }
-                    }
-                }
+            if let Some((w, span)) = declared_name(s) {
+                self.declared_at.entry(w.text.clone()).or_insert(span.line);
             }
         }
         let mut duration_set: Option<usize> = None;
@@ -333,15 +337,18 @@ impl<'a> Builder<'a> {
                     params,
                     span,
                 } => self.module(keyword, refs, params, *span),
+                Statement::Probe {
+                    keyword,
+                    name,
+                    terms,
+                    params,
+                    span,
+                } => self.probe(keyword, name, terms, params, *span),
             };
             if let Err(e) = r {
-                if let Statement::Module { keyword, refs, .. } = s {
-                    if keyword.text != "init" {
-                        if let Some((w, _)) = refs.first().and_then(|r| r.parts.first()) {
-                            if !self.names.contains_key(&w.text) {
-                                self.poisoned.insert(w.text.clone());
-                            }
-                        }
+                if let Some((w, _)) = declared_name(s) {
+                    if !self.names.contains_key(&w.text) {
+                        self.poisoned.insert(w.text.clone());
                     }
                 }
                 if e.message.is_empty() {
@@ -538,7 +545,7 @@ impl<'a> Builder<'a> {
 
     // ---- names -------------------------------------------------------------------------------
 
-    fn declare(&mut self, name: String, entity: Entity, span: Span) -> R<()> {
+    pub(crate) fn declare(&mut self, name: String, entity: Entity, span: Span) -> R<()> {
         if let Some((_, first)) = self.names.get(&name) {
             return Err(Diagnostic::error(
                 ErrorKind::DuplicateName,
@@ -637,7 +644,7 @@ impl<'a> Builder<'a> {
         .with_hint(hint.unwrap_or_else(|| "modules must be declared before they are used".into())))
     }
 
-    fn material(&self, r: &Ref, role: &str) -> R<MatId> {
+    pub(crate) fn material(&self, r: &Ref, role: &str) -> R<MatId> {
         match self.lookup(r)? {
             (_, Entity::Mat(m)) => Ok(m),
             (name, Entity::Group(kind)) => Err(Diagnostic::error(
@@ -659,7 +666,7 @@ impl<'a> Builder<'a> {
         }
     }
 
-    fn link(&self, r: &Ref) -> R<LinkId> {
+    pub(crate) fn link(&self, r: &Ref) -> R<LinkId> {
         match self.lookup(r)? {
             (_, Entity::Link(l)) => Ok(l),
             (name, _) => Err(Diagnostic::error(
@@ -671,7 +678,7 @@ impl<'a> Builder<'a> {
         }
     }
 
-    fn add_mat(&mut self, name: String, m: Material, span: Span) -> R<MatId> {
+    pub(crate) fn add_mat(&mut self, name: String, m: Material, span: Span) -> R<MatId> {
         let id = MatId(self.net.materials.len() as u32);
         self.declare(name.clone(), Entity::Mat(id), span)?;
         self.net.add_material(m);
@@ -679,7 +686,7 @@ impl<'a> Builder<'a> {
         Ok(id)
     }
 
-    fn add_link(
+    pub(crate) fn add_link(
         &mut self,
         name: String,
         law: Interaction,
@@ -689,6 +696,12 @@ impl<'a> Builder<'a> {
     ) -> R<LinkId> {
         let id = LinkId(self.net.links.len() as u32);
         self.declare(name.clone(), Entity::Link(id), span)?;
+        if let Interaction::But { s, .. } = law {
+            self.tracked.push(Tracked {
+                link: id,
+                activity: Activity::Below(s),
+            });
+        }
         self.net.add_link(law, a, b);
         self.link_names.push(Named { name, span });
         Ok(id)
@@ -697,7 +710,13 @@ impl<'a> Builder<'a> {
     // ---- values --------------------------------------------------------------------------------
 
     /// An optional number of kind `kind`, `default` when absent.
-    fn num(&self, p: &mut Params, key: &'static str, kind: Kind, default: f64) -> R<f64> {
+    pub(crate) fn num(
+        &self,
+        p: &mut Params,
+        key: &'static str,
+        kind: Kind,
+        default: f64,
+    ) -> R<f64> {
         match p.get(key, &[])? {
             Some(param) => self.env.number(&param.value, kind, key),
             None => Ok(default),
@@ -723,7 +742,7 @@ impl<'a> Builder<'a> {
         })
     }
 
-    fn positive(&self, p: &mut Params, key: &'static str, span: Span) -> R<f64> {
+    pub(crate) fn positive(&self, p: &mut Params, key: &'static str, span: Span) -> R<f64> {
         let param = self.required(
             p,
             key,
@@ -804,17 +823,15 @@ impl<'a> Builder<'a> {
         let k = kw.text.as_str();
         let arity = match k {
             "mas" | "sol" | "cel" | "enx" | "string" | "membrane" | "init" => 1,
-            "res" | "fro" | "ref" | "but" | "lnl" => 3,
-            _ => 2, // enf, sox, sof
+            "res" | "fro" | "ref" | "but" | "lnl" | "stick" | "bond" => 3,
+            _ => 2, // enf
         };
         if refs.len() != arity {
             let form = match k {
-                "res" | "fro" | "ref" | "but" | "lnl" => {
+                "res" | "fro" | "ref" | "but" | "lnl" | "stick" | "bond" => {
                     format!("{k} NAME END1 END2 parameters...")
                 }
                 "enf" => "enf NAME TARGET signal=...".into(),
-                "sox" => "sox NAME MATERIAL".into(),
-                "sof" => "sof NAME INTERACTION".into(),
                 "init" => "init MODULE X0=... V0=...".into(),
                 _ => format!("{k} NAME parameters..."),
             };
@@ -940,6 +957,7 @@ impl<'a> Builder<'a> {
                         "an interaction must join two different modules",
                     ));
                 }
+                let mut track = false;
                 let law = match k {
                     "res" => Interaction::Res {
                         k: self.req(&mut p, "K", Kind::Stiffness, span)?,
@@ -972,6 +990,10 @@ impl<'a> Builder<'a> {
                         if lk.is_empty() && lz.is_empty() {
                             return Err(Diagnostic::error(ErrorKind::MissingParameter, span, "an lnl needs a curve LK (force over elongation) or LZ (force over velocity)"));
                         }
+                        track = match p.get("track", &[])? {
+                            Some(x) => self.yes_no(&x.value)?,
+                            None => false,
+                        };
                         Interaction::Lnl { lk, lz }
                     }
                 };
@@ -991,8 +1013,16 @@ impl<'a> Builder<'a> {
                         ),
                     ));
                 }
-                self.add_link(nm(), law, a, b, span)?;
+                let id = self.add_link(nm(), law, a, b, span)?;
+                if track {
+                    self.tracked.push(Tracked {
+                        link: id,
+                        activity: Activity::NonZero,
+                    });
+                }
             }
+            "stick" => self.stick_stmt(nm(), &refs[1], &refs[2], &mut p, span)?,
+            "bond" => self.bond_stmt(nm(), &refs[1], &refs[2], &mut p, span)?,
             "enf" => {
                 let target = self.material(&refs[1], "the target of an enf")?;
                 let signal = self.signal(&mut p, span)?;
@@ -1006,19 +1036,6 @@ impl<'a> Builder<'a> {
                 self.declare(nm(), Entity::Force, span)?;
                 self.net.add_force(target, signal);
                 self.force_names.push(Named { name: nm(), span });
-            }
-            "sox" | "sof" => {
-                p.finish(&what)?;
-                if k == "sox" {
-                    let m = self.material(&refs[1], "what a sox records")?;
-                    self.declare(nm(), Entity::Output, span)?;
-                    self.net.add_position_output(m);
-                } else {
-                    let l = self.link(&refs[1])?;
-                    self.declare(nm(), Entity::Output, span)?;
-                    self.net.add_force_output(l);
-                }
-                self.output_names.push(Named { name: nm(), span });
             }
             "init" => {
                 let target = self.material(&refs[0], "`init`")?;
@@ -1062,9 +1079,76 @@ impl<'a> Builder<'a> {
         Ok(())
     }
 
-    fn req(&self, p: &mut Params, key: &'static str, kind: Kind, span: Span) -> R<f64> {
+    pub(crate) fn req(&self, p: &mut Params, key: &'static str, kind: Kind, span: Span) -> R<f64> {
         let param = self.required(p, key, span, "", format!("add {key}=VALUE"))?;
         self.env.number(&param.value, kind, key)
+    }
+
+    /// `yes`/`no` (or `true`/`false`, `1`/`0`).
+    pub(crate) fn yes_no(&self, e: &Expr) -> R<bool> {
+        match &e.kind {
+            ExprKind::Name(n)
+                if ["yes", "true", "on"].contains(&n.to_ascii_lowercase().as_str()) =>
+            {
+                Ok(true)
+            }
+            ExprKind::Name(n)
+                if ["no", "false", "off"].contains(&n.to_ascii_lowercase().as_str()) =>
+            {
+                Ok(false)
+            }
+            ExprKind::Num(v) if *v == 1.0 || *v == 0.0 => Ok(*v == 1.0),
+            _ => Err(Diagnostic::error(
+                ErrorKind::Syntax,
+                e.span,
+                "expected yes or no",
+            )),
+        }
+    }
+
+    /// `sox NAME TERMS` and `sof NAME TERMS`: one output channel.
+    fn probe(
+        &mut self,
+        kw: &Word,
+        name: &Ref,
+        terms: &[(Option<Expr>, bool, Ref)],
+        params: &[Param],
+        span: Span,
+    ) -> R<()> {
+        let name = self.plain_name(name)?;
+        let p = Params::new(params);
+        p.finish(&format!("`{}`", kw.text))?;
+        let mut probes = Vec::with_capacity(terms.len());
+        for (gain, negative, r) in terms {
+            let g = match gain {
+                Some(e) => self.env.number(e, Kind::Plain, "a gain")?,
+                None => 1.0,
+            };
+            let g = if *negative { -g } else { g };
+            let probe = if kw.text == "sox" {
+                Probe::Position(self.material(r, "what a sox records")?)
+            } else {
+                Probe::Force(self.link(r)?)
+            };
+            probes.push((g, probe));
+        }
+        self.declare(name.text.clone(), Entity::Output, span)?;
+        match probes.as_slice() {
+            [(g, Probe::Position(m))] if *g == 1.0 => {
+                self.net.add_position_output(*m);
+            }
+            [(g, Probe::Force(l))] if *g == 1.0 => {
+                self.net.add_force_output(*l);
+            }
+            _ => {
+                self.net.add_sum_output(probes);
+            }
+        }
+        self.output_names.push(Named {
+            name: name.text,
+            span,
+        });
+        Ok(())
     }
 
     fn words(&self, e: &Expr) -> R<Vec<(String, Span)>> {
@@ -1306,10 +1390,10 @@ impl<'a> Builder<'a> {
 }
 
 fn first_member(base: &str, kind: &str) -> String {
-    if kind == "membrane" {
-        format!("{base}[0,0]")
-    } else {
-        format!("{base}[0]")
+    match kind {
+        "membrane" => format!("{base}[0,0]"),
+        "sticking device" => format!("{base}.L (or {base}.MC1 for a bond)"),
+        _ => format!("{base}[0]"),
     }
 }
 
@@ -1372,4 +1456,24 @@ pub fn eval_text(text: &str, fs: f64) -> Result<Value, Diagnostic> {
         failed: Default::default(),
     }
     .eval(&e)
+}
+
+/// The name a statement declares, if any (for "declared later" and for poisoning).
+fn declared_name(s: &Statement) -> Option<(&Word, Span)> {
+    match s {
+        Statement::Module {
+            keyword,
+            refs,
+            span,
+            ..
+        } if keyword.text != "init" => match refs.first()?.parts.first()? {
+            (w, idx) if idx.is_empty() => Some((w, *span)),
+            _ => None,
+        },
+        Statement::Probe { name, span, .. } => match name.parts.first()? {
+            (w, idx) if idx.is_empty() => Some((w, *span)),
+            _ => None,
+        },
+        _ => None,
+    }
 }

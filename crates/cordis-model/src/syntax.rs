@@ -110,6 +110,20 @@ pub enum Statement {
         /// The whole line.
         span: Span,
     },
+    /// `sox NAME TERM (+|- TERM)...` or `sof ...`: one output channel, the weighted sum of its
+    /// terms; a term is `[GAIN *] REF` with GAIN a number or a parenthesised expression.
+    Probe {
+        /// `sox` or `sof` (lower case).
+        keyword: Word,
+        /// The channel's name.
+        name: Ref,
+        /// `(gain, module)`; the gain is `None` for an implicit 1 (a leading `-` makes it `-1`).
+        terms: Vec<(Option<Expr>, bool, Ref)>,
+        /// Parameters (none are accepted; kept for the error message).
+        params: Vec<Param>,
+        /// The whole line.
+        span: Span,
+    },
     /// Every other statement: `KEYWORD ref... key=value...`.
     Module {
         /// The keyword, lower-cased in `text`.
@@ -126,7 +140,7 @@ pub enum Statement {
 /// Statement keywords the language knows (for did-you-mean).
 pub const KEYWORDS: &[&str] = &[
     "rate", "duration", "let", "mas", "sol", "cel", "enx", "res", "fro", "ref", "but", "lnl",
-    "enf", "sox", "sof", "string", "membrane", "init",
+    "enf", "sox", "sof", "string", "membrane", "init", "stick", "bond",
 ];
 
 /// Units that may follow a number or a parenthesised expression.
@@ -487,6 +501,49 @@ impl Parser<'_> {
                 Statement::Setting {
                     keyword,
                     value,
+                    span: line,
+                }
+            }
+            "sox" | "sof" => {
+                let name = self.reference()?;
+                let mut terms = Vec::new();
+                let mut negative = false;
+                loop {
+                    if self.peek_sym('-') || self.peek_sym('+') {
+                        negative = self.peek_sym('-');
+                        self.pos += 1;
+                    }
+                    let gain = match self.peek().map(|t| &t.tok) {
+                        Some(Tok::Num(_)) | Some(Tok::Sym('(')) => {
+                            let g = self.postfix()?;
+                            self.expect_sym('*', "`*` between a gain and the module it scales")?;
+                            Some(g)
+                        }
+                        _ => None,
+                    };
+                    terms.push((gain, negative, self.reference()?));
+                    negative = false;
+                    if !(self.peek_sym('+') || self.peek_sym('-')) {
+                        break;
+                    }
+                }
+                let mut params = Vec::new();
+                while self.peek().is_some() {
+                    let key = match self.peek() {
+                        Some(Token {
+                            tok: Tok::Ident(_), ..
+                        }) if self.peek_at_sym(1, '=') => self.ident("a parameter")?,
+                        _ => return Err(self.unexpected("`+`, `-` or the end of the line")),
+                    };
+                    self.pos += 1;
+                    let value = self.param_value()?;
+                    params.push(Param { key, value });
+                }
+                Statement::Probe {
+                    keyword,
+                    name,
+                    terms,
+                    params,
                     span: line,
                 }
             }

@@ -2,7 +2,7 @@
 #![allow(clippy::unwrap_used)] // tests and benches may panic on failure
 #![allow(dead_code)]
 
-use cordis_core::{Curve, Interaction, Material, Network, Output, Signal};
+use cordis_core::{Curve, Interaction, Material, Network, Output, Probe, Signal};
 
 /// Linear-scan curve evaluation, written independently of `Curve::eval`.
 pub fn curve_ref(points: &[(f64, f64)], x: f64) -> f64 {
@@ -88,9 +88,20 @@ pub fn reference(net: &Network, steps: usize) -> Vec<f64> {
             force[fi.target.index()] += fi.signal.at(n);
         }
         for o in &net.outputs {
+            let probe = |p: &Probe| match p {
+                Probe::Position(m) => x[m.index()],
+                Probe::Force(l) => lf[l.index()],
+            };
             out.push(match o {
                 Output::Position(m) => x[m.index()],
                 Output::Force(l) => lf[l.index()],
+                Output::Sum(terms) => {
+                    let mut acc = terms[0].0 * probe(&terms[0].1);
+                    for (g, p) in &terms[1..] {
+                        acc += g * probe(p);
+                    }
+                    acc
+                }
             });
         }
         for (i, m) in net.materials.iter().enumerate() {
@@ -193,6 +204,11 @@ pub fn every_module_network() -> Network {
     net.add_position_output(hand);
     net.add_force_output(r);
     net.add_force_output(l);
+    net.add_sum_output(vec![
+        (0.5, Probe::Position(m1)),
+        (-2.0, Probe::Position(c)),
+        (3.0, Probe::Force(l)),
+    ]);
     net
 }
 
