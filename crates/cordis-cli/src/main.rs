@@ -4,6 +4,7 @@
 //! they are rendered here.
 
 mod output;
+mod pictures;
 mod render;
 mod report;
 
@@ -64,6 +65,68 @@ Exit codes: 0 ok, 1 invalid model, 2 bad command line, 3 blew up, 4 output faile
 
 Exit codes: 0 valid and stable, 1 invalid, 2 bad command line, 3 valid but unstable.")]
     Check(ModelArgs),
+    /// Draw the spectrogram of a WAV file as a PNG (time in s, frequency in Hz, dB colour bar).
+    #[command(after_help = "Examples:
+  cordis spectrogram string.wav -o string.png
+  cordis spectrogram bell.wav -o bell.png --log-freq --max-freq 8000 --window 4096 --hop 256
+
+Exit codes: 0 ok, 1 the WAV file cannot be read, 2 bad command line, 4 the PNG could not be written.")]
+    Spectrogram(SpectrogramArgs),
+}
+
+/// Spectrogram drawing options (shared by `spectrogram` and `render --spectrogram`).
+#[derive(Args, Clone)]
+pub struct SpecArgs {
+    /// FFT window length in samples (Hann window).
+    #[arg(long, value_name = "SAMPLES", default_value_t = 2048)]
+    pub window: usize,
+    /// Hop between windows in samples (default: window / 4).
+    #[arg(long, value_name = "SAMPLES")]
+    pub hop: Option<usize>,
+    /// Highest frequency shown, Hz (default: Nyquist).
+    #[arg(long, value_name = "HZ")]
+    pub max_freq: Option<f64>,
+    /// Lowest frequency shown, Hz (default: 0, or 20 with --log-freq).
+    #[arg(long, value_name = "HZ")]
+    pub min_freq: Option<f64>,
+    /// Logarithmic frequency axis.
+    #[arg(long)]
+    pub log_freq: bool,
+    /// Dynamic range shown below the peak, dB.
+    #[arg(long, value_name = "DB", default_value_t = 90.0)]
+    pub db_range: f64,
+    /// Image width and height in pixels.
+    #[arg(long, value_name = "WxH", default_value = "1200x600", value_parser = parse_size)]
+    pub size: (u32, u32),
+}
+
+#[derive(Args)]
+struct SpectrogramArgs {
+    /// The WAV file.
+    input: PathBuf,
+    /// The PNG to write.
+    #[arg(short, long, value_name = "OUT.png")]
+    output: PathBuf,
+    /// Which channel of the file (from 0).
+    #[arg(long, default_value_t = 0)]
+    channel: usize,
+    #[command(flatten)]
+    spec: SpecArgs,
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let err = || format!("`{s}` is not WIDTHxHEIGHT (for example 1200x600)");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(err)?;
+    let (w, h) = (
+        w.trim().parse().map_err(|_| err())?,
+        h.trim().parse().map_err(|_| err())?,
+    );
+    if w < 200 || h < 150 || w > 10_000 || h > 10_000 {
+        return Err(format!(
+            "{s}: width must be 200..10000 and height 150..10000 pixels"
+        ));
+    }
+    Ok((w, h))
 }
 
 #[derive(Args)]
@@ -106,6 +169,24 @@ struct RenderArgs {
     /// Write an integer WAV even if samples exceed full scale (they are clipped, with a warning).
     #[arg(long)]
     allow_clipping: bool,
+    /// Write the event log (step,time_s,link,state: when each BUT, sticking spring and tracked LNL
+    /// becomes active or inactive) to this CSV file.
+    #[arg(long, value_name = "FILE.csv")]
+    events: Option<PathBuf>,
+    /// Write the energy log (kinetic, potential, dissipated, input, total) to this CSV file.
+    #[arg(long, value_name = "FILE.csv")]
+    energy: Option<PathBuf>,
+    /// Write an energy row every N steps.
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
+    energy_every: u64,
+    /// Also draw the spectrogram of one output channel as a PNG.
+    #[arg(long, value_name = "OUT.png")]
+    spectrogram: Option<PathBuf>,
+    /// The output channel the spectrogram shows (from 0).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    spectrogram_channel: usize,
+    #[command(flatten)]
+    spec: SpecArgs,
     /// Frames per engine block (output does not depend on it).
     #[arg(long, default_value_t = 4096, value_parser = clap::value_parser!(u32).range(1..=1_048_576))]
     block: u32,
@@ -154,6 +235,7 @@ fn main() -> ExitCode {
     let code = match cli.command {
         Command::Render(a) => render::render(&a),
         Command::Check(a) => render::check(&a),
+        Command::Spectrogram(a) => render::spectrogram(&a.input, &a.output, a.channel, &a.spec),
     };
     ExitCode::from(code)
 }

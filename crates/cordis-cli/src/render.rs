@@ -9,7 +9,8 @@ use cordis_model::{stability, Model};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::output::{self, Format, Pending, SampleFormat};
-use crate::{exit, report, ModelArgs, RenderArgs};
+use crate::{exit, pictures, report, ModelArgs, RenderArgs, SpecArgs};
+use cordis_model::{EnergyMeter, EnergyRow, EventLog};
 
 fn load(args: &ModelArgs) -> Result<Model, u8> {
     match cordis_model::load_file(&args.model, &args.options()) {
@@ -84,6 +85,7 @@ pub fn check(args: &ModelArgs) -> u8 {
             cordis_core::Output::Force(l) => {
                 format!("{} (sof {})", n.name, model.links[l.index()].name)
             }
+            cordis_core::Output::Sum(t) => format!("{} (sum of {} terms)", n.name, t.len()),
         })
         .collect();
     outln!(
@@ -94,10 +96,11 @@ pub fn check(args: &ModelArgs) -> u8 {
         outs.join(", ")
     );
     let s = stability::check(&model);
+    let all_stable = s.stable && model.devices.iter().all(|d| d.is_stable());
     outln!(
         out,
         "stability: {}",
-        if s.stable { "stable" } else { "UNSTABLE" }
+        if all_stable { "stable" } else { "UNSTABLE" }
     );
     for c in &s.cels {
         outln!(
@@ -117,6 +120,29 @@ pub fn check(args: &ModelArgs) -> u8 {
             if s.includes_nonlinear { "; BUT and LNL links counted at their stiffest" } else { "" }
         );
     }
+    for d in &model.devices {
+        let (lhs, bound) = d.stability();
+        let (kind, cond) = match d.kind {
+            cordis_model::DeviceKind::Simple => ("stick", "KL + 2 Z1 < 4 mu"),
+            cordis_model::DeviceKind::Complete => ("bond", "KL + 2 KR + 2 Z1 < 4 mC"),
+        };
+        let sb = d
+            .breaking_distance()
+            .map(|b| format!(", S_B = {b:.6}"))
+            .unwrap_or_default();
+        outln!(
+            out,
+            "  device {} ({kind}): Z1 = {:.6e}{}{sb}; {cond}: {lhs:.6} vs {bound:.6}: {}",
+            d.name,
+            d.z1,
+            if d.buts { "" } else { " (no BUTs)" },
+            if d.is_stable() {
+                "stable"
+            } else {
+                "UNSTABLE once connected"
+            }
+        );
+    }
     if !s.offenders.is_empty() {
         let list: Vec<String> = s
             .offenders
@@ -128,7 +154,7 @@ pub fn check(args: &ModelArgs) -> u8 {
     }
     // A closed pipe (`cordis check m.cordis | head`) is not an error.
     let _ = std::io::stdout().write_all(out.as_bytes());
-    if s.stable {
+    if all_stable {
         exit::OK
     } else {
         exit::UNSTABLE
@@ -171,6 +197,19 @@ pub fn render(args: &RenderArgs) -> u8 {
         eprintln!("  hint: write .csv or .f64, or use a whole rate");
         return exit::INVALID;
     }
+    if args.spectrogram_channel >= channels && args.spectrogram.is_some() {
+        eprintln!(
+            "cordis: --spectrogram-channel {} does not exist: the model has {channels} output channel(s), numbered from 0",
+            args.spectrogram_channel
+        );
+        return exit::USAGE;
+    }
+    let mut events = args.events.as_ref().map(|_| EventLog::new(&model));
+    let mut energy = args
+        .energy
+        .as_ref()
+        .map(|_| EnergyMeter::new(&model, args.energy_every));
+    let observing = events.is_some() || energy.is_some();
     let frames = model.duration as usize;
     let mut data = vec![0.0f64; frames * channels];
     let mut engine = model.compile();
@@ -181,7 +220,20 @@ pub fn render(args: &RenderArgs) -> u8 {
     let mut done = 0usize;
     while done < frames {
         let n = block.min(frames - done);
-        if let Err(b) = engine.process(n, &mut data[done * channels..(done + n) * channels]) {
+        let block_out = &mut data[done * channels..(done + n) * channels];
+        let result = if observing {
+            engine.process_observed(n, block_out, &mut |v| {
+                if let Some(log) = events.as_mut() {
+                    log.observe(v);
+                }
+                if let Some(meter) = energy.as_mut() {
+                    meter.observe(v);
+                }
+            })
+        } else {
+            engine.process(n, block_out)
+        };
+        if let Err(b) = result {
             bar.finish_and_clear();
             report_blow_up(&model, b);
             return exit::UNSTABLE;
@@ -252,6 +304,41 @@ pub fn render(args: &RenderArgs) -> u8 {
         eprintln!("cordis: {e:#}");
         return exit::OUTPUT;
     }
+    let mut extras = Vec::new();
+    if let (Some(path), Some(log)) = (&args.events, &events) {
+        match write_events(path, &model, log) {
+            Ok(()) => extras.push(format!("{} events to {}", log.events.len(), path.display())),
+            Err(e) => {
+                eprintln!("cordis: {e:#}");
+                return exit::OUTPUT;
+            }
+        }
+    }
+    if let (Some(path), Some(meter)) = (&args.energy, &energy) {
+        match write_energy(path, model.rate, &meter.rows) {
+            Ok(()) => extras.push(format!(
+                "{} energy rows to {}",
+                meter.rows.len(),
+                path.display()
+            )),
+            Err(e) => {
+                eprintln!("cordis: {e:#}");
+                return exit::OUTPUT;
+            }
+        }
+    }
+    if let Some(path) = &args.spectrogram {
+        let c = args.spectrogram_channel;
+        let samples: Vec<f64> = data.iter().skip(c).step_by(channels).copied().collect();
+        let title = format!("{}: {}", model.path.display(), model.outputs[c].name);
+        match pictures::draw(&samples, model.rate, &args.spec, title, path) {
+            Ok(()) => extras.push(format!("spectrogram to {}", path.display())),
+            Err(e) => {
+                eprintln!("cordis: {e:#}");
+                return exit::OUTPUT;
+            }
+        }
+    }
     let rate = (frames as f64 * model.network.materials.len() as f64) / elapsed.max(1e-9);
     eprintln!(
         "cordis: wrote {} ({} channel{}, {} samples, {:.3} s at {} Hz{note}) in {:.2} s ({:.3e} mass-steps/s)",
@@ -264,6 +351,9 @@ pub fn render(args: &RenderArgs) -> u8 {
         elapsed,
         rate
     );
+    for e in extras {
+        eprintln!("cordis: wrote {e}");
+    }
     exit::OK
 }
 
@@ -299,4 +389,74 @@ fn report_blow_up(model: &Model, b: BlowUp) {
     eprintln!("  nothing was written.");
     eprintln!("  hint: the explicit scheme needs K/M < 4 (and K + 2Z < 4M for a cel): lower the stiffness or viscosity");
     eprintln!("        of these links, raise the inertia M, or raise the rate; `cordis check` shows the stability verdict");
+}
+
+/// `step,time_s,link,state`, one row per change.
+fn write_events(path: &std::path::Path, model: &Model, log: &EventLog) -> anyhow::Result<()> {
+    let mut text = String::from("step,time_s,link,state\n");
+    for e in &log.events {
+        let _ = writeln!(
+            text,
+            "{},{},{},{}",
+            e.step,
+            e.step as f64 / model.rate,
+            model.links[e.link.index()].name,
+            u8::from(e.active)
+        );
+    }
+    write_text(path, &text)
+}
+
+/// `step,time_s,kinetic,potential,dissipated,input,total`.
+fn write_energy(path: &std::path::Path, rate: f64, rows: &[EnergyRow]) -> anyhow::Result<()> {
+    let mut text = String::from("step,time_s,kinetic,potential,dissipated,input,total\n");
+    for r in rows {
+        let _ = writeln!(
+            text,
+            "{},{},{:.16e},{:.16e},{:.16e},{:.16e},{:.16e}",
+            r.step,
+            r.step as f64 / rate,
+            r.kinetic,
+            r.potential,
+            r.dissipated,
+            r.input,
+            r.total
+        );
+    }
+    write_text(path, &text)
+}
+
+fn write_text(path: &std::path::Path, text: &str) -> anyhow::Result<()> {
+    use anyhow::Context;
+    let pending = Pending::new(path);
+    std::fs::write(pending.path(), text)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    pending.commit()
+}
+
+/// `cordis spectrogram`.
+pub fn spectrogram(
+    input: &std::path::Path,
+    output: &std::path::Path,
+    channel: usize,
+    spec: &SpecArgs,
+) -> u8 {
+    let (samples, rate) = match pictures::read_wav_channel(input, channel) {
+        Ok(v) => v,
+        Err(e) => {
+            eprintln!("cordis: {e:#}");
+            return exit::INVALID;
+        }
+    };
+    let title = format!("{} (channel {channel})", input.display());
+    match pictures::draw(&samples, rate, spec, title, output) {
+        Ok(()) => {
+            eprintln!("cordis: wrote {}", output.display());
+            exit::OK
+        }
+        Err(e) => {
+            eprintln!("cordis: {e:#}");
+            exit::OUTPUT
+        }
+    }
 }

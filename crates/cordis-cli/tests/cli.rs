@@ -497,3 +497,137 @@ fn the_readme_tour_model_works() {
         0
     );
 }
+
+/// Width and height from a PNG's IHDR chunk.
+fn png_size(path: &Path) -> (u32, u32) {
+    let b = std::fs::read(path).unwrap();
+    assert_eq!(
+        &b[..8],
+        b"\x89PNG\r\n\x1a\n",
+        "{} is not a PNG",
+        path.display()
+    );
+    let be = |i: usize| u32::from_be_bytes(b[i..i + 4].try_into().unwrap());
+    (be(16), be(20))
+}
+
+const STICKY: &str = "duration 2000\nsol g\nmas m M=1 X0=0.15 V0=-1e-3\nstick st g m KL=0.1 S=0.1\nmas ball M=1 X0=0.3 V0=-2e-3\nbut floor g ball K=0.1 Z=1e-3\nlnl drag g ball LZ=[(-1,-1e-6) (0,0) (1,0)] track=yes\nsox o m\nsof f st.L\n";
+
+#[test]
+fn render_writes_events_energy_and_a_spectrogram() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "sticky.cordis", STICKY);
+    let r = cordis(
+        dir.path(),
+        &[
+            "render",
+            "sticky.cordis",
+            "-o",
+            "x.wav",
+            "--normalize",
+            "--events",
+            "ev.csv",
+            "--energy",
+            "en.csv",
+            "--energy-every",
+            "10",
+            "--spectrogram",
+            "s.png",
+            "--size",
+            "640x320",
+            "--max-freq",
+            "2000",
+        ],
+    );
+    expect_code!(r, 0);
+    let ev = std::fs::read_to_string(dir.path().join("ev.csv")).unwrap();
+    let rows: Vec<&str> = ev.lines().collect();
+    assert_eq!(rows[0], "step,time_s,link,state");
+    // the spring catches m when |d| < 0.1 (x from 0.15 at -1e-3 per step: step 50 or 51)
+    let st: Vec<&str> = rows
+        .iter()
+        .filter(|l| l.contains(",st.L,"))
+        .copied()
+        .collect();
+    assert!(st[0].ends_with(",st.L,1"), "{ev}");
+    let step: u64 = st[0].split(',').next().unwrap().parse().unwrap();
+    assert!((50..=51).contains(&step), "{ev}");
+    // the BUTs of the device and the floor are followed too; the drag LNL as asked
+    for name in [",st.B1,", ",floor,", ",drag,"] {
+        assert!(ev.contains(name), "{name} missing in\n{ev}");
+    }
+    let en = std::fs::read_to_string(dir.path().join("en.csv")).unwrap();
+    let mut lines = en.lines();
+    assert_eq!(
+        lines.next(),
+        Some("step,time_s,kinetic,potential,dissipated,input,total")
+    );
+    assert_eq!(lines.count(), 200);
+    assert_eq!(png_size(&dir.path().join("s.png")), (640, 320));
+    // the standalone command draws the WAV
+    let r = cordis(
+        dir.path(),
+        &[
+            "spectrogram",
+            "x.wav",
+            "-o",
+            "t.png",
+            "--log-freq",
+            "--window",
+            "512",
+        ],
+    );
+    expect_code!(r, 0);
+    assert_eq!(png_size(&dir.path().join("t.png")), (1200, 600));
+    let r = cordis(
+        dir.path(),
+        &["spectrogram", "x.wav", "-o", "u.png", "--channel", "3"],
+    );
+    expect_code!(r, 1);
+    assert!(
+        r.stderr.contains("channel 3 does not exist"),
+        "{}",
+        r.stderr
+    );
+    let r = cordis(
+        dir.path(),
+        &["spectrogram", "x.wav", "-o", "u.png", "--size", "10x10"],
+    );
+    expect_code!(r, 2);
+    assert!(!dir.path().join("u.png").exists());
+}
+
+#[test]
+fn check_reports_each_device() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "dev.cordis",
+        "sol g\nmas a M=1\nmas b M=1\nbond good a b mC=0.2 KL=0.1 S=0.1 KR=0.05\nsox o a\n",
+    );
+    let r = cordis(dir.path(), &["check", "dev.cordis"]);
+    expect_code!(r, 0);
+    assert!(
+        r.stdout.contains("device good (bond): Z1 = "),
+        "{}",
+        r.stdout
+    );
+    assert!(r.stdout.contains("S_B = 0.400000"), "{}", r.stdout);
+    write(
+        dir.path(),
+        "bad.cordis",
+        "sol g\nmas a M=1\nmas b M=1\nbond hot a b mC=0.1 KL=0.1 S=0.1 KR=0.05\nsox o a\n",
+    );
+    let r = cordis(dir.path(), &["check", "bad.cordis"]);
+    expect_code!(r, 3);
+    assert!(
+        r.stdout.contains("device hot (bond)") && r.stdout.contains("UNSTABLE once connected"),
+        "{}",
+        r.stdout
+    );
+    assert!(
+        r.stderr.contains("`hot` is unstable once connected"),
+        "{}",
+        r.stderr
+    );
+}

@@ -31,6 +31,7 @@ pub mod eval;
 mod model;
 mod observe;
 mod signals;
+pub use signals::read_wav_channel;
 pub mod stability;
 pub mod syntax;
 

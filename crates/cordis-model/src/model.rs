@@ -1245,6 +1245,7 @@ impl<'a> Builder<'a> {
             }
             None => (true, true),
         };
+        let base = self.num(p, "X0", Kind::Plain, 0.0)?;
         let pluck = match p.get("pluck", &[])? {
             Some(x) => match &x.value.kind {
                 ExprKind::Tuple(t) if t.len() == 2 => {
@@ -1280,13 +1281,17 @@ impl<'a> Builder<'a> {
             };
             ids.push(self.add_mat(
                 format!("{name}[{i}]"),
-                Material::Mas { m, x0, v0: 0.0 },
+                Material::Mas {
+                    m,
+                    x0: base + x0,
+                    v0: 0.0,
+                },
                 span,
             )?);
         }
         let law = Interaction::Ref { k, z };
         if ends.0 {
-            let g = self.add_mat(format!("{name}.left"), Material::Sol { x0: 0.0 }, span)?;
+            let g = self.add_mat(format!("{name}.left"), Material::Sol { x0: base }, span)?;
             self.add_link(format!("{name}.l[0]"), law.clone(), g, ids[0], span)?;
         }
         for i in 1..n {
@@ -1299,7 +1304,7 @@ impl<'a> Builder<'a> {
             )?;
         }
         if ends.1 {
-            let g = self.add_mat(format!("{name}.right"), Material::Sol { x0: 0.0 }, span)?;
+            let g = self.add_mat(format!("{name}.right"), Material::Sol { x0: base }, span)?;
             self.add_link(format!("{name}.l[{n}]"), law, ids[n - 1], g, span)?;
         }
         Ok(())

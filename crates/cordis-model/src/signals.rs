@@ -275,32 +275,40 @@ fn read_file(path: &Path, channel: usize, fs: f64, max_samples: usize) -> FileRe
 }
 
 fn read_wav(path: &Path, channel: usize, fs: f64, max_samples: usize) -> FileResult {
-    let reader =
-        hound::WavReader::open(path).map_err(|e| (format!("cannot read it as WAV: {e}"), None))?;
-    let spec = reader.spec();
-    if f64::from(spec.sample_rate) != fs {
+    let (data, rate) = read_wav_channel(path, channel, max_samples)?;
+    if f64::from(rate) != fs {
         return Err((
-            format!(
-                "its sample rate is {} Hz but the model runs at {fs} Hz",
-                spec.sample_rate
-            ),
+            format!("its sample rate is {rate} Hz but the model runs at {fs} Hz"),
             Some(format!(
-                "resample the file to {fs} Hz, or set `rate {}` in the model",
-                spec.sample_rate
+                "resample the file to {fs} Hz, or set `rate {rate}` in the model"
             )),
         ));
     }
+    Ok(data)
+}
+
+/// Reads one channel of a WAV file as `f64` (integer samples scaled to [-1, 1)), with the file's
+/// sample rate. Refuses files of more than `max_samples` frames and non-finite samples. The error
+/// is a message and an optional hint.
+pub fn read_wav_channel(
+    path: &Path,
+    channel: usize,
+    max_samples: usize,
+) -> Result<(Vec<f64>, u32), (String, Option<String>)> {
+    let reader =
+        hound::WavReader::open(path).map_err(|e| (format!("cannot read it as WAV: {e}"), None))?;
+    let spec = reader.spec();
     let chans = usize::from(spec.channels);
     if channel >= chans {
         return Err((
-            format!("it has {chans} channel(s); channel={channel} does not exist"),
+            format!("it has {chans} channel(s); channel {channel} does not exist"),
             Some(format!("channels are numbered 0..{}", chans - 1)),
         ));
     }
     let frames = reader.duration() as usize;
     if frames > max_samples {
         return Err((
-            format!("it has {frames} samples, more than the longest render allows ({max_samples})"),
+            format!("it has {frames} samples, more than the {max_samples} allowed"),
             Some("raise --max-duration".into()),
         ));
     }
@@ -328,7 +336,7 @@ fn read_wav(path: &Path, channel: usize, fs: f64, max_samples: usize) -> FileRes
     if let Some(i) = out.iter().position(|v| !v.is_finite()) {
         return Err((format!("sample {i} is not finite"), None));
     }
-    Ok(out)
+    Ok((out, spec.sample_rate))
 }
 
 fn read_csv(path: &Path, column: usize, max_samples: usize) -> FileResult {

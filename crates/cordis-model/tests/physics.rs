@@ -292,3 +292,15 @@ fn fft_of_a_struck_string_peaks_at_its_exact_discrete_modes() {
         }
     }
 }
+
+#[test]
+fn a_string_can_sit_at_an_offset() {
+    let m = load("string s n=3 M=1 K=0.1 ends=fixed,free X0=3 pluck=(0, 1)\nsox o s[0]\n");
+    let x0: Vec<f64> = m
+        .network
+        .materials
+        .iter()
+        .map(|mt| mt.initial_state().0)
+        .collect();
+    assert_eq!(x0, [4.0, 3.0 + 2.0 / 3.0, 3.0 + 1.0 / 3.0, 3.0]);
+}
