@@ -91,7 +91,7 @@ pub(crate) fn measure(text: &str, size: f64) -> Result<(usize, usize), PlotError
     Ok((t.width, t.height))
 }
 
-/// An RGB image, row-major, 3 bytes a pixel (the layout plotters' bitmap backend blits).
+/// An RGB image, row-major, 3 bytes a pixel (the layout a PNG of colour type RGB stores).
 pub(crate) struct Canvas {
     pub width: usize,
     pub height: usize,

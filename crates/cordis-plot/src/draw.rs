@@ -1,11 +1,9 @@
 //! The PNG figure: heat map, axes, colour bar and title, laid out from measured text so that
-//! nothing is cut off at any size. Pixels are drawn on our own [`Canvas`]; plotters' bitmap
+//! nothing is cut off at any size. Pixels are drawn on our own [`Canvas`]; the PNG
 //! backend only encodes the PNG.
 
 use std::fs;
 use std::path::{Path, PathBuf};
-
-use plotters::prelude::{BitMapBackend, DrawingBackend};
 
 use crate::canvas::{measure, Canvas, HAlign, VAlign, INK, PAPER};
 use crate::colormap::magma;
@@ -65,12 +63,17 @@ fn encode(canvas: &Canvas, file: &Path) -> Result<(), PlotError> {
             file.display()
         ))
     };
-    let size = (canvas.width as u32, canvas.height as u32);
-    let mut backend = BitMapBackend::new(file, size);
-    backend
-        .blit_bitmap((0, 0), size, &canvas.rgb)
-        .map_err(|e| fail(&e))?;
-    backend.present().map_err(|e| fail(&e))
+    let out = fs::File::create(file).map_err(|e| fail(&e))?;
+    let mut encoder = png::Encoder::new(
+        std::io::BufWriter::new(out),
+        canvas.width as u32,
+        canvas.height as u32,
+    );
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header().map_err(|e| fail(&e))?;
+    writer.write_image_data(&canvas.rgb).map_err(|e| fail(&e))?;
+    writer.finish().map_err(|e| fail(&e))
 }
 
 /// How a pixel reads the dB matrix along one axis: the maximum over the samples (frames or
