@@ -361,7 +361,7 @@ impl Lcg {
 
 #[test]
 fn hostile_text_never_panics_or_hangs() {
-    let valid = "rate 44100\nduration 10ms\nlet k = 0.1\nmas m1 M=1 X0=0 V0=0\nsol g X0=0\ncel c M=1 K=0.01 Z=1e-5 X0=1\nref r g m1 K=k Z=1e-4\nbut b m1 c K=0.05 Z=0.001 S=0.1\nlnl l m1 c LK=[(-1,0) (-1,-0.05) (1,0.05) (1,0)]\nenf push m1 signal=impulse(at=0, amp=1)\nenx hand signal=sine(freq=2Hz, amp=1)\nstring s n=4 M=1 K=0.1 ends=fixed,free\nmembrane mem rows=2 cols=2 M=1 K=0.1\nsox out s[3]\nsof f r\n";
+    let valid = "rate 44100\nduration 10ms\nlet k = 0.1\nmas m1 M=1 X0=0 V0=0\nsol g X0=0\ncel c M=1 K=0.01 Z=1e-5 X0=1\nref r g m1 K=k Z=1e-4\nbut b m1 c K=0.05 Z=0.001 S=0.1\nlnl l m1 c LK=[(-1,0) (-1,-0.05) (1,0.05) (1,0)]\nenf push m1 signal=impulse(at=0, amp=1)\nenx hand signal=sine(freq=2Hz, amp=1)\nstring s n=4 M=1 K=0.1 ends=fixed,free\nmembrane mem rows=2 cols=2 M=1 K=0.1\nsox out s[3]\nsof f r\nstick st m1 c KL=0.1 S=0.1\nbond bd m1 s[0] mC=0.1 KL=0.1 S=0.1 KR=0.01 X1=-1\nsox mix 0.5*m1 - (2*k)*bd.MC1 + s[2]\nsof fs st.L + bd.R\n";
     assert!(load_str("ok.cordis".as_ref(), valid, &Options::default()).is_ok());
     let alphabet: Vec<char> = "abcdefmnrsxz019 .,=()[]+-*/^#\"\n\t_KMXZS"
         .chars()
@@ -473,4 +473,70 @@ fn duration_twice_is_an_error_like_rate_twice() {
         "`rate` is set twice (first at line 1)",
         "",
     );
+}
+
+#[test]
+fn device_and_sum_errors() {
+    let d = first_error("sol a\nsol b\nstick st a b KL=0.1 S=0.1\n");
+    check(
+        &d,
+        ErrorKind::WrongKind,
+        3,
+        1,
+        "neither end of this device can move",
+        "Z1=",
+    );
+    let d = first_error("mas a M=1\nmas b M=1\nbond bd a b mC=0.1 KL=0.1 S=0.1 KR=0\n");
+    check(&d, ErrorKind::OutOfRange, 3, 1, "KR must be > 0", "");
+    let d = first_error("mas a M=1\nmas b M=1\nstick st a b KL=0.1 S=-1\n");
+    check(
+        &d,
+        ErrorKind::OutOfRange,
+        3,
+        1,
+        "threshold S must be > 0",
+        "",
+    );
+    let d = first_error("mas a M=1\nmas b M=1\nbond bd a b KL=0.1 S=0.1 KR=0.01\n");
+    check(
+        &d,
+        ErrorKind::MissingParameter,
+        3,
+        1,
+        "`mC` is required",
+        "",
+    );
+    let d = first_error("mas a M=1\nmas b M=1\nstick st a b KL=0.1 S=0.1 buts=maybe\n");
+    check(&d, ErrorKind::Syntax, 3, 32, "expected yes or no", "");
+    let d = first_error("mas a M=1\nmas b M=1\nstick st a b KL=0.1 S=0.1\nsox o st\n");
+    check(
+        &d,
+        ErrorKind::WrongKind,
+        4,
+        7,
+        "whole sticking device",
+        "st.L",
+    );
+    let d = first_error("mas a M=1\nres r a a2 K=1\n");
+    assert_eq!(d.kind, ErrorKind::UnknownName);
+    let d = first_error("mas a M=1\nmas b M=1\nres r a b K=1\nsox o a + r\n");
+    check(
+        &d,
+        ErrorKind::WrongKind,
+        4,
+        11,
+        "what a sox records must be a material module",
+        "",
+    );
+    let d = first_error("mas a M=1\nsox o 2 a\n");
+    check(
+        &d,
+        ErrorKind::Syntax,
+        2,
+        9,
+        "`*` between a gain and the module",
+        "",
+    );
+    let d = first_error("mas a M=1\nsox o a +\n");
+    check(&d, ErrorKind::Syntax, 2, 10, "expected a module name", "");
 }
