@@ -49,7 +49,9 @@ impl Format {
     }
 }
 
-/// A file being written next to its final path; dropped without `commit`, it is removed.
+/// A file being written next to its final path and renamed into place when complete; dropped
+/// without `commit`, it is removed. A destination that exists and is not a regular file (a device
+/// such as `/dev/stdout`, a pipe) is written directly: renaming over it would replace it.
 pub struct Pending {
     tmp: PathBuf,
     dest: PathBuf,
@@ -57,8 +59,15 @@ pub struct Pending {
 }
 
 impl Pending {
-    /// A temporary path beside `dest`.
+    /// A temporary path beside `dest` (or `dest` itself for a special file).
     pub fn new(dest: &Path) -> Pending {
+        if std::fs::metadata(dest).is_ok_and(|m| !m.is_file()) {
+            return Pending {
+                tmp: dest.to_path_buf(),
+                dest: dest.to_path_buf(),
+                done: true,
+            };
+        }
         let name = dest
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
@@ -78,8 +87,11 @@ impl Pending {
 
     /// Moves the finished file into place.
     pub fn commit(mut self) -> Result<()> {
-        std::fs::rename(&self.tmp, &self.dest)
-            .with_context(|| format!("cannot move the finished file to {}", self.dest.display()))?;
+        if self.tmp != self.dest {
+            std::fs::rename(&self.tmp, &self.dest).with_context(|| {
+                format!("cannot move the finished file to {}", self.dest.display())
+            })?;
+        }
         self.done = true;
         Ok(())
     }

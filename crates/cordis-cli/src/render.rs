@@ -330,7 +330,13 @@ pub fn render(args: &RenderArgs) -> u8 {
     if let Some(path) = &args.spectrogram {
         let c = args.spectrogram_channel;
         let samples: Vec<f64> = data.iter().skip(c).step_by(channels).copied().collect();
-        let title = format!("{}: {}", model.path.display(), model.outputs[c].name);
+        let sets: String = args
+            .model
+            .sets
+            .iter()
+            .map(|(n, v)| format!(" {n}={v}"))
+            .collect();
+        let title = format!("{}: {}{sets}", model.path.display(), model.outputs[c].name);
         match pictures::draw(&samples, model.rate, &args.spec, title, path) {
             Ok(()) => extras.push(format!("spectrogram to {}", path.display())),
             Err(e) => {

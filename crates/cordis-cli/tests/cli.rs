@@ -413,13 +413,17 @@ fn golden_renders() {
     assert!(checked >= 1, "no golden models found");
 }
 
-/// Every example in `examples/` checks, and renders a short excerpt to WAV.
+/// Every example in `examples/` and `examples/instrumentarium/` checks, and renders a short
+/// excerpt to WAV.
 #[test]
 fn examples_check_and_render() {
     let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
     let mut n = 0;
-    for entry in std::fs::read_dir(&examples).unwrap() {
-        let model = entry.unwrap().path();
+    let files = std::fs::read_dir(&examples)
+        .unwrap()
+        .chain(std::fs::read_dir(examples.join("instrumentarium")).unwrap())
+        .map(|e| e.unwrap().path());
+    for model in files {
         if model.extension().and_then(|e| e.to_str()) != Some("cordis") {
             continue;
         }
@@ -442,7 +446,10 @@ fn examples_check_and_render() {
         expect_code!(r, 0);
         n += 1;
     }
-    assert!(n >= 5, "expected the five examples, found {n}");
+    assert!(
+        n >= 11,
+        "expected the five examples and the six instrumentarium models, found {n}"
+    );
 }
 
 #[test]
@@ -629,5 +636,133 @@ fn check_reports_each_device() {
         r.stderr.contains("`hot` is unstable once connected"),
         "{}",
         r.stderr
+    );
+}
+
+/// Writing to a special file (here a FIFO read by another thread; `/dev/stdout` is the everyday
+/// case) must write into it, never rename a temporary over it.
+#[cfg(unix)]
+#[test]
+fn outputs_to_a_special_file_are_written_in_place() {
+    use std::io::Read;
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "sticky.cordis", STICKY);
+    let fifo = dir.path().join("events.pipe");
+    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    let reader = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || {
+            let mut s = String::new();
+            std::fs::File::open(&fifo)
+                .unwrap()
+                .read_to_string(&mut s)
+                .unwrap();
+            s
+        })
+    };
+    let r = cordis(
+        dir.path(),
+        &[
+            "render",
+            "sticky.cordis",
+            "-o",
+            "x.f64",
+            "--events",
+            "events.pipe",
+        ],
+    );
+    expect_code!(r, 0);
+    let text = reader.join().unwrap();
+    assert!(
+        text.starts_with("step,time_s,link,state\n") && text.contains(",st.L,1"),
+        "{text}"
+    );
+    let kind = std::fs::symlink_metadata(&fifo).unwrap().file_type();
+    assert!(!kind.is_file(), "the FIFO is still a FIFO");
+}
+
+/// Connections of sticking springs in an events CSV: (time_s, link).
+fn connections(csv: &str) -> Vec<(f64, String)> {
+    csv.lines()
+        .skip(1)
+        .filter_map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            (f[2].ends_with(".L") && f[3] == "1").then(|| (f[1].parse().unwrap(), f[2].to_string()))
+        })
+        .collect()
+}
+
+/// The instrumentarium behaves as `docs/INSTRUMENTARIUM.md` reports (a regression anchor for the
+/// documented measurements): the (St)ring's devices connect at 0.800, 1.797 and 2.767 s, and the
+/// reconfigurable instrument's first 8 s hold 1 + 15 + 3 + 20 events beginning with L1 sticking to
+/// R3 at 0.643 s.
+#[test]
+fn the_instrumentarium_does_what_its_documentation_says() {
+    let x = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/instrumentarium");
+    let dir = tempfile::tempdir().unwrap();
+    let ring = x.join("string_ring.cordis");
+    let r = cordis(
+        dir.path(),
+        &[
+            "render",
+            ring.to_str().unwrap(),
+            "-o",
+            "r.f64",
+            "--events",
+            "ring.csv",
+        ],
+    );
+    expect_code!(r, 0);
+    let c = connections(&std::fs::read_to_string(dir.path().join("ring.csv")).unwrap());
+    let firsts: Vec<(f64, &str)> = c
+        .iter()
+        .filter(|(_, l)| l.ends_with(".S1.L"))
+        .map(|(t, l)| (*t, l.as_str()))
+        .collect();
+    assert_eq!(firsts.len(), 3, "{c:?}");
+    for ((t, l), (want_t, want_l)) in firsts.iter().zip([
+        (0.7998, "dev1.S1.L"),
+        (1.7971, "dev2.S1.L"),
+        (2.7671, "dev3.S1.L"),
+    ]) {
+        assert_eq!(*l, want_l);
+        assert!(
+            (t - want_t).abs() < 1e-3,
+            "{l} at {t} s, documented {want_t} s"
+        );
+    }
+    let reconf = x.join("reconfigurable_8s.cordis");
+    let r = cordis(
+        dir.path(),
+        &[
+            "render",
+            reconf.to_str().unwrap(),
+            "-o",
+            "i.f64",
+            "--duration",
+            "8s",
+            "--events",
+            "inst.csv",
+        ],
+    );
+    expect_code!(r, 0);
+    let text = std::fs::read_to_string(dir.path().join("inst.csv")).unwrap();
+    let springs: Vec<&str> = text
+        .lines()
+        .skip(1)
+        .filter(|l| l.split(',').nth(2).is_some_and(|n| n.ends_with(".L")))
+        .collect();
+    assert_eq!(springs.len(), 39, "{text}");
+    let first: Vec<&str> = springs[0].split(',').collect();
+    assert!(
+        (first[1].parse::<f64>().unwrap() - 0.643).abs() < 1e-3 && first[3] == "1",
+        "{}",
+        springs[0]
+    );
+    assert!(
+        first[2].contains("L1") && first[2].contains("R3"),
+        "{}",
+        springs[0]
     );
 }

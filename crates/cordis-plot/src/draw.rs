@@ -37,6 +37,11 @@ pub(crate) fn write_png(
         )));
     }
     let canvas = draw_figure(spec, plan, duration, opts)?;
+    // A device, pipe or other special file (`/dev/stdout`) is written in place: renaming a
+    // temporary over it would replace it.
+    if fs::metadata(path).is_ok_and(|m| !m.is_file()) {
+        return encode(&canvas, path);
+    }
     let tmp = dir.join(format!(
         ".{}.{}.partial.png",
         name.to_string_lossy(),
@@ -71,6 +76,7 @@ fn encode(canvas: &Canvas, file: &Path) -> Result<(), PlotError> {
     );
     encoder.set_color(png::ColorType::Rgb);
     encoder.set_depth(png::BitDepth::Eight);
+    encoder.set_compression(png::Compression::Best);
     let mut writer = encoder.write_header().map_err(|e| fail(&e))?;
     writer.write_image_data(&canvas.rgb).map_err(|e| fail(&e))?;
     writer.finish().map_err(|e| fail(&e))
