@@ -199,7 +199,7 @@ pub(crate) struct Builder<'a> {
 
 /// The parameters of one statement, taken one by one; what is left over is reported.
 pub(crate) struct Params<'p> {
-    list: &'p [Param],
+    pub(crate) list: &'p [Param],
     used: Vec<bool>,
     accepted: Vec<&'static str>,
 }
@@ -1245,6 +1245,51 @@ impl<'a> Builder<'a> {
             }
             None => (true, true),
         };
+        let ends_given = p.list.iter().any(|q| {
+            ["ends", "end"]
+                .iter()
+                .any(|k| q.key.text.eq_ignore_ascii_case(k))
+        });
+        let anchor_left = self.anchor_param(p, "left")?;
+        let anchor_right = self.anchor_param(p, "right")?;
+        let mut ends = ends;
+        for (given, fixed, side) in [
+            (&anchor_left, &mut ends.0, "left"),
+            (&anchor_right, &mut ends.1, "right"),
+        ] {
+            if let Some((_, at)) = given {
+                if ends_given && !*fixed {
+                    return Err(Diagnostic::error(
+                        ErrorKind::ConflictingParameter,
+                        *at,
+                        format!(
+                            "`{side}=` fixes the {side} end to a module, but `ends` makes it free"
+                        ),
+                    )
+                    .with_hint(format!("drop `{side}=`, or make the {side} end fixed")));
+                }
+                *fixed = true;
+            }
+        }
+        let air = match p.get("air", &[])? {
+            Some(x) => Some((
+                self.env.number(&x.value, Kind::Viscosity, "air")?,
+                x.value.span,
+            )),
+            None => None,
+        };
+        if let Some((_, at)) = air {
+            if !ends.0 && !ends.1 {
+                return Err(Diagnostic::error(
+                    ErrorKind::ConflictingParameter,
+                    at,
+                    "`air` damps every mass against the string's fixed end, and both ends are free",
+                )
+                .with_hint(
+                    "fix an end (ends=fixed,free, or left=MODULE), or write the dampers with `fro`",
+                ));
+            }
+        }
         let base = self.num(p, "X0", Kind::Plain, 0.0)?;
         let pluck = match p.get("pluck", &[])? {
             Some(x) => match &x.value.kind {
@@ -1270,7 +1315,7 @@ impl<'a> Builder<'a> {
             None => None,
         };
         p.finish("`string`")?;
-        self.budget(2 * n + 3, span)?;
+        self.budget(3 * n + 3, span)?;
         self.declare(name.clone(), Entity::Group("string"), span)?;
         let mut ids = Vec::with_capacity(n);
         for i in 0..n {
@@ -1290,9 +1335,14 @@ impl<'a> Builder<'a> {
             )?);
         }
         let law = Interaction::Ref { k, z };
+        let mut anchor = None;
         if ends.0 {
-            let g = self.add_mat(format!("{name}.left"), Material::Sol { x0: base }, span)?;
+            let g = match anchor_left {
+                Some((g, _)) => g,
+                None => self.add_mat(format!("{name}.left"), Material::Sol { x0: base }, span)?,
+            };
             self.add_link(format!("{name}.l[0]"), law.clone(), g, ids[0], span)?;
+            anchor = Some(g);
         }
         for i in 1..n {
             self.add_link(
@@ -1304,10 +1354,56 @@ impl<'a> Builder<'a> {
             )?;
         }
         if ends.1 {
-            let g = self.add_mat(format!("{name}.right"), Material::Sol { x0: base }, span)?;
+            let g = match anchor_right {
+                Some((g, _)) => g,
+                None => self.add_mat(format!("{name}.right"), Material::Sol { x0: base }, span)?,
+            };
             self.add_link(format!("{name}.l[{n}]"), law, ids[n - 1], g, span)?;
+            anchor = anchor.or(Some(g));
+        }
+        if let (Some((z_air, _)), Some(a)) = (air, anchor) {
+            for (i, &id) in ids.iter().enumerate() {
+                self.add_link(
+                    format!("{name}.air[{i}]"),
+                    Interaction::Fro { z: z_air },
+                    a,
+                    id,
+                    span,
+                )?;
+            }
         }
         Ok(())
+    }
+
+    /// A generator parameter naming an existing material module (`left=bridge`).
+    fn anchor_param(&self, p: &mut Params, key: &'static str) -> R<Option<(MatId, Span)>> {
+        let Some(x) = p.get(key, &[])? else {
+            return Ok(None);
+        };
+        let ExprKind::Name(n) = &x.value.kind else {
+            return Err(Diagnostic::error(
+                ErrorKind::Syntax,
+                x.value.span,
+                format!("`{key}=` takes the name of a module"),
+            )
+            .with_hint(
+                "a plain name such as `bridge`; give an indexed module a name of its own first",
+            ));
+        };
+        let r = Ref {
+            parts: vec![(
+                Word {
+                    text: n.clone(),
+                    span: x.value.span,
+                },
+                Vec::new(),
+            )],
+            span: x.value.span,
+        };
+        Ok(Some((
+            self.material(&r, &format!("`{key}=`"))?,
+            x.value.span,
+        )))
     }
 
     fn membrane(&mut self, name: String, p: &mut Params, span: Span) -> R<()> {

@@ -304,3 +304,47 @@ fn a_string_can_sit_at_an_offset() {
         .collect();
     assert_eq!(x0, [4.0, 3.0 + 2.0 / 3.0, 3.0 + 1.0 / 3.0, 3.0]);
 }
+
+#[test]
+fn a_string_can_hang_from_an_existing_module_with_air_damping() {
+    let m = load("cel bridge M=1e10 K=1 R=3 X0=3\nstring s n=3 M=1 K=0.1 ends=fixed,free left=bridge air=1e-3 X0=3\nsox o s[2]\n");
+    let names: Vec<&str> = m.materials.iter().map(|n| n.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["bridge", "s[0]", "s[1]", "s[2]"],
+        "no SOL of its own"
+    );
+    let links: Vec<&str> = m.links.iter().map(|n| n.name.as_str()).collect();
+    assert_eq!(
+        links,
+        ["s.l[0]", "s.l[1]", "s.l[2]", "s.air[0]", "s.air[1]", "s.air[2]"]
+    );
+    let bridge = cordis_core::MatId(0);
+    assert_eq!(m.network.links[0].a, bridge);
+    for l in &m.network.links[3..] {
+        assert_eq!(l.a, bridge);
+        assert_eq!(l.law, cordis_core::Interaction::Fro { z: 1e-3 });
+    }
+    // a right anchor, and the errors
+    let m =
+        load("sol wall\nstring s n=2 M=1 K=0.1 right=wall ends=free,fixed air=1e-4\nsox o s[0]\n");
+    assert_eq!(
+        m.network.links.last().map(|l| l.a),
+        Some(cordis_core::MatId(0))
+    );
+    let err = |t: &str| {
+        load_str("t.cordis".as_ref(), t, &Options::default())
+            .unwrap_err()
+            .diagnostics
+            .remove(0)
+    };
+    assert!(err("sol w\nstring s n=2 M=1 K=0.1 ends=free left=w\n")
+        .message
+        .contains("`ends` makes it free"));
+    assert!(err("string s n=2 M=1 K=0.1 ends=free air=1e-3\n")
+        .message
+        .contains("both ends are free"));
+    assert!(err("string s n=2 M=1 K=0.1 left=nowhere\n")
+        .message
+        .contains("no module is named `nowhere`"));
+}
