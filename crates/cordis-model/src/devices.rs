@@ -215,15 +215,8 @@ impl Builder<'_> {
         Ok(l)
     }
 
-    /// `stick NAME A B KL= S= [Z1=] [buts=]`.
-    pub(crate) fn stick_stmt(
-        &mut self,
-        name: String,
-        ra: &Ref,
-        rb: &Ref,
-        p: &mut Params,
-        span: Span,
-    ) -> R<()> {
+    /// The two ends of a device: material modules, and not the same one.
+    fn device_ends(&self, ra: &Ref, rb: &Ref) -> R<(MatId, MatId)> {
         let a = self.material(ra, "end 1")?;
         let b = self.material(rb, "end 2")?;
         if a == b {
@@ -233,6 +226,19 @@ impl Builder<'_> {
                 "a sticking device must join two different modules",
             ));
         }
+        Ok((a, b))
+    }
+
+    /// `stick NAME A B KL= S= [Z1=] [buts=]`.
+    pub(crate) fn stick_stmt(
+        &mut self,
+        name: String,
+        ra: &Ref,
+        rb: &Ref,
+        p: &mut Params,
+        span: Span,
+    ) -> R<()> {
+        let (a, b) = self.device_ends(ra, rb)?;
         let sp = self.stick_params(p, span)?;
         p.finish("`stick`")?;
         let (ia, ib) = (
@@ -289,15 +295,7 @@ impl Builder<'_> {
         p: &mut Params,
         span: Span,
     ) -> R<()> {
-        let a = self.material(ra, "end 1")?;
-        let b = self.material(rb, "end 2")?;
-        if a == b {
-            return Err(Diagnostic::error(
-                ErrorKind::WrongKind,
-                rb.span,
-                "a sticking device must join two different modules",
-            ));
-        }
+        let (a, b) = self.device_ends(ra, rb)?;
         let m_c = self.positive(p, "mC", span)?;
         let sp = self.stick_params(p, span)?;
         let k_r = self.req(p, "KR", Kind::Stiffness, span)?;

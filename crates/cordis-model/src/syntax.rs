@@ -527,18 +527,7 @@ impl Parser<'_> {
                         break;
                     }
                 }
-                let mut params = Vec::new();
-                while self.peek().is_some() {
-                    let key = match self.peek() {
-                        Some(Token {
-                            tok: Tok::Ident(_), ..
-                        }) if self.peek_at_sym(1, '=') => self.ident("a parameter")?,
-                        _ => return Err(self.unexpected("`+`, `-` or the end of the line")),
-                    };
-                    self.pos += 1;
-                    let value = self.param_value()?;
-                    params.push(Param { key, value });
-                }
+                let params = self.params("`+`, `-` or the end of the line")?;
                 Statement::Probe {
                     keyword,
                     name,
@@ -559,18 +548,7 @@ impl Parser<'_> {
                 {
                     refs.push(self.reference()?);
                 }
-                let mut params = Vec::new();
-                while self.peek().is_some() {
-                    let key = match self.peek() {
-                        Some(Token {
-                            tok: Tok::Ident(_), ..
-                        }) if self.peek_at_sym(1, '=') => self.ident("a parameter")?,
-                        _ => return Err(self.unexpected("a parameter `key=value`")),
-                    };
-                    self.pos += 1; // '='
-                    let value = self.param_value()?;
-                    params.push(Param { key, value });
-                }
+                let params = self.params("a parameter `key=value`")?;
                 Statement::Module {
                     keyword,
                     refs,
@@ -599,6 +577,23 @@ impl Parser<'_> {
             .with_hint("one statement per line; parameters are written key=value"));
         }
         Ok(stmt)
+    }
+
+    /// `key=value` parameters up to the end of the line; `expected` says what else could stand there.
+    fn params(&mut self, expected: &str) -> Result<Vec<Param>, Diagnostic> {
+        let mut params = Vec::new();
+        while self.peek().is_some() {
+            if !(matches!(self.peek().map(|t| &t.tok), Some(Tok::Ident(_)))
+                && self.peek_at_sym(1, '='))
+            {
+                return Err(self.unexpected(expected));
+            }
+            let key = self.ident("a parameter")?;
+            self.pos += 1; // '='
+            let value = self.param_value()?;
+            params.push(Param { key, value });
+        }
+        Ok(params)
     }
 
     fn reference(&mut self) -> Result<Ref, Diagnostic> {
