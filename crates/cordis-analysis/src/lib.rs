@@ -1,0 +1,54 @@
+//! # cordis-analysis: what a network will sound like, before it sounds
+//!
+//! The network linearised at its rest state ([`LinearSystem`]), its matrices and state space
+//! ([`matrices`]), its modes exactly for the discrete scheme ([`ModalAnalysis`]: frequencies, decay
+//! times, shapes, amplitudes at each pickup), and its frequency responses. Built on `faer`.
+#![warn(missing_docs)]
+// `!(x > 0.0)` rejects NaN along with the out-of-range values: intended.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+mod linear;
+mod modes;
+
+pub use linear::{LinearSystem, SymSparse};
+pub use modes::{equilibrium, Method, ModalAnalysis, Mode, ModeKind, DENSE_LIMIT};
+
+/// Why an analysis could not be done.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum AnalysisError {
+    /// The model has no MAS or CEL: nothing can move.
+    NoMobileModule,
+    /// A matrix is singular or has a non-finite entry.
+    Singular(String),
+    /// An eigenvalue solver did not converge.
+    NoConvergence(String),
+    /// Too many degrees of freedom for the dense methods.
+    TooLarge {
+        /// Degrees of freedom of the model.
+        dofs: usize,
+        /// The limit.
+        limit: usize,
+    },
+    /// A module name that is not a mobile module of the model.
+    UnknownModule {
+        /// The name given.
+        name: String,
+        /// A suggestion.
+        hint: String,
+    },
+}
+
+impl std::fmt::Display for AnalysisError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            AnalysisError::NoMobileModule => write!(f, "the model has no mobile module (mas or cel): there is nothing to analyse (hint: add a mas or cel)"),
+            AnalysisError::Singular(s) => write!(f, "the matrices cannot be analysed: {s}"),
+            AnalysisError::NoConvergence(s) => write!(f, "the eigenvalue solver did not converge: {s}"),
+            AnalysisError::TooLarge { dofs, limit } => write!(f, "the model has {dofs} mobile modules; the dense analysis handles at most {limit} (hint: ask for the lowest modes only with --count N)"),
+            AnalysisError::UnknownModule { name, hint } => write!(f, "`{name}` is not a mobile module of the model ({hint})"),
+        }
+    }
+}
+
+impl std::error::Error for AnalysisError {}

@@ -1,0 +1,516 @@
+//! Modal analysis, exact for the discrete scheme.
+//!
+//! Undamped modes solve `K φ = λ M φ` (symmetric, through `M^-1/2 K M^-1/2`) and ring at
+//! `f = (Fs/π) asin(sqrt(λ)/2)`. With damping the poles are those of the state matrix
+//! `A_d = [[2I - M^-1(K+R), -I + M^-1 R], [I, 0]]`. Two exact ways to get them:
+//!
+//! - **decoupled**: when `C = Φᵀ R Φ` is diagonal (R proportional to M and K, the common case of
+//!   uniform strings and membranes), each mode `j` is a CEL of its own,
+//!   `z² + (λ_j + c_j - 2) z + (1 - c_j) = 0`, and its poles follow in closed form;
+//! - **state space**: otherwise, the eigenvalues of the `2n × 2n` matrix `A_d` (dense; slower).
+//!
+//! A pole `r e^{iθ}` rings at `f = θ Fs / 2π` and decays to 1/e in `τ = -1 / (Fs ln r)`.
+
+use faer::{c64, Mat};
+
+use crate::linear::LinearSystem;
+use crate::AnalysisError;
+
+/// What kind of motion a mode is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ModeKind {
+    /// A pair of complex poles: a damped (or undamped) oscillation.
+    Oscillating,
+    /// Real poles: a decay without oscillation (overdamped), or growth.
+    NonOscillating,
+    /// `λ = 0` of a free-floating part: the part drifts as a whole.
+    Rigid,
+}
+
+/// One mode.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mode {
+    /// Its kind.
+    pub kind: ModeKind,
+    /// Frequency, Hz (0 for non-oscillating and rigid modes).
+    pub freq_hz: f64,
+    /// Decay time of the amplitude to 1/e, s (`inf` when undamped; negative when it grows).
+    pub tau_s: f64,
+    /// Time to decay by 60 dB, s (`tau ln 1000`).
+    pub t60_s: f64,
+    /// Quality factor `π f τ` (`inf` when undamped).
+    pub q: f64,
+    /// The pole's radius `r` (> 1: unstable).
+    pub radius: f64,
+    /// `λ` of the undamped problem (decoupled and undamped methods), else NaN.
+    pub lambda: f64,
+    /// Amplitude at each output channel (`LinearSystem::outputs`) for the model's initial
+    /// conditions and impulses: the envelope at step 0.
+    pub amplitudes: Vec<f64>,
+    /// The shape over the dofs: `Φᵀ M Φ = I` for undamped and decoupled modes; for state-space
+    /// modes the magnitude of the complex shape, scaled to a largest entry of 1.
+    pub shape: Vec<f64>,
+}
+
+/// How the poles were found.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Method {
+    /// No damping: `K φ = λ M φ`.
+    Undamped,
+    /// Damping diagonal in the undamped modes: closed-form poles per mode.
+    Decoupled,
+    /// Eigenvalues of the state matrix; `coupling` is the largest off-diagonal `|C_ij|` relative to
+    /// the largest `|C|`, the reason the decoupled method was not exact.
+    StateSpace {
+        /// Relative size of the damping's off-diagonal part in the undamped modes.
+        coupling: f64,
+    },
+}
+
+/// The modes of a network and what the transfer functions need.
+#[derive(Clone, Debug)]
+pub struct ModalAnalysis {
+    /// The modes, by increasing frequency (non-oscillating and rigid modes first).
+    pub modes: Vec<Mode>,
+    /// How they were found.
+    pub method: Method,
+    /// The largest pole radius (> 1: the scheme is unstable).
+    pub max_radius: f64,
+    /// The largest `λ` of `M^-1 K` (stable undamped when < 4), NaN for the state-space method.
+    pub lambda_max: f64,
+    decomposition: Decomposition,
+}
+
+#[derive(Clone, Debug)]
+enum Decomposition {
+    /// `phi` (n × n, M-orthonormal), `lambda`, `c` (diagonal of Φᵀ R Φ).
+    Modal {
+        phi: Mat<f64>,
+        lambda: Vec<f64>,
+        c: Vec<f64>,
+    },
+    /// `A_d = V diag(mu) V^-1`; `vinv_b` = V^-1 [M^-1; 0] (2n × n), `v_top` = top half of V.
+    State {
+        mu: Vec<c64>,
+        v_top: Mat<c64>,
+        vinv_b: Mat<c64>,
+    },
+}
+
+const LN_1000: f64 = 6.907_755_278_982_137;
+
+/// Poles of `z² - a z + b = 0`, as a mode (without amplitudes and shape).
+fn mode_from_quadratic(a: f64, b: f64, fs: f64) -> (ModeKind, f64, f64, f64) {
+    let disc = a * a - 4.0 * b;
+    if disc < 0.0 {
+        let r = b.sqrt();
+        let theta = (a / (2.0 * r)).clamp(-1.0, 1.0).acos();
+        (
+            ModeKind::Oscillating,
+            theta * fs / std::f64::consts::TAU,
+            tau(r, fs),
+            r,
+        )
+    } else {
+        let s = disc.sqrt();
+        let (z1, z2) = ((a + s) / 2.0, (a - s) / 2.0);
+        let r = z1.abs().max(z2.abs());
+        (ModeKind::NonOscillating, 0.0, tau(r, fs), r)
+    }
+}
+
+fn tau(r: f64, fs: f64) -> f64 {
+    if r == 1.0 {
+        f64::INFINITY
+    } else {
+        -1.0 / (fs * r.ln())
+    }
+}
+
+fn finish(kind: ModeKind, freq: f64, tau_s: f64, radius: f64, lambda: f64) -> Mode {
+    Mode {
+        kind,
+        freq_hz: freq,
+        tau_s,
+        t60_s: tau_s * LN_1000,
+        q: if tau_s.is_infinite() {
+            f64::INFINITY
+        } else {
+            std::f64::consts::PI * freq * tau_s
+        },
+        radius,
+        lambda,
+        amplitudes: Vec::new(),
+        shape: Vec::new(),
+    }
+}
+
+impl ModalAnalysis {
+    /// All the modes of a linear system (dense: up to a few thousand dofs).
+    pub fn compute(sys: &LinearSystem) -> Result<ModalAnalysis, AnalysisError> {
+        let n = sys.len();
+        if n == 0 {
+            return Err(AnalysisError::NoMobileModule);
+        }
+        if n > DENSE_LIMIT {
+            return Err(AnalysisError::TooLarge {
+                dofs: n,
+                limit: DENSE_LIMIT,
+            });
+        }
+        for (i, &m) in sys.mass.iter().enumerate() {
+            if !(m > 0.0 && m.is_finite()) {
+                return Err(AnalysisError::Singular(format!(
+                    "the inertia of {} is {m}",
+                    sys.names[i]
+                )));
+            }
+        }
+        let fs = sys.rate;
+        let isq: Vec<f64> = sys.mass.iter().map(|m| 1.0 / m.sqrt()).collect();
+        let scale = |a: &Mat<f64>| Mat::<f64>::from_fn(n, n, |i, j| a[(i, j)] * isq[i] * isq[j]);
+        let ks = scale(&sys.k.dense());
+        check_finite(&ks, "K")?;
+        let evd = ks
+            .self_adjoint_eigen(faer::Side::Lower)
+            .map_err(|e| AnalysisError::NoConvergence(format!("{e:?}")))?;
+        let lambda: Vec<f64> = (0..n).map(|j| evd.S()[j]).collect();
+        let v = evd.U();
+        // Φ = M^-1/2 V: Φᵀ M Φ = I
+        let phi = Mat::<f64>::from_fn(n, n, |i, j| v[(i, j)] * isq[i]);
+        let lambda_max = lambda.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
+        let scale_l = lambda
+            .iter()
+            .fold(0.0f64, |a, &b| a.max(b.abs()))
+            .max(f64::MIN_POSITIVE);
+        let undamped = sys.r.is_zero();
+        let rs = scale(&sys.r.dense());
+        check_finite(&rs, "R")?;
+        let (method, c) = if undamped {
+            (Method::Undamped, vec![0.0; n])
+        } else {
+            // C = Vᵀ (M^-1/2 R M^-1/2) V
+            let cm = v.transpose() * &rs * v;
+            let big = (0..n)
+                .flat_map(|i| (0..n).map(move |j| (i, j)))
+                .fold(0.0f64, |a, (i, j)| a.max(cm[(i, j)].abs()));
+            let off = (0..n)
+                .flat_map(|i| (0..n).map(move |j| (i, j)))
+                .filter(|(i, j)| i != j)
+                .fold(0.0f64, |a, (i, j)| a.max(cm[(i, j)].abs()));
+            let coupling = if big > 0.0 { off / big } else { 0.0 };
+            if coupling <= 1e-12 {
+                (Method::Decoupled, (0..n).map(|j| cm[(j, j)]).collect())
+            } else {
+                (Method::StateSpace { coupling }, Vec::new())
+            }
+        };
+        if let Method::StateSpace { .. } = method {
+            return state_space(sys, &ks, &rs, &isq, method, lambda_max);
+        }
+        let _ = &rs;
+        let mut modes = Vec::with_capacity(n);
+        let rigid_tol = 1e-11 * scale_l;
+        for j in 0..n {
+            let (l, cj) = (lambda[j], c[j]);
+            let (kind, f, t, r) = if l.abs() <= rigid_tol && cj.abs() <= rigid_tol {
+                (ModeKind::Rigid, 0.0, f64::INFINITY, 1.0)
+            } else {
+                mode_from_quadratic(2.0 - l - cj, 1.0 - cj, fs)
+            };
+            let mut m = finish(kind, f, t, r, l);
+            m.shape = (0..n).map(|i| phi[(i, j)]).collect();
+            modes.push(m);
+        }
+        let mut ma = ModalAnalysis {
+            max_radius: modes.iter().fold(0.0f64, |a, m| a.max(m.radius)),
+            modes,
+            method,
+            lambda_max,
+            decomposition: Decomposition::Modal { phi, lambda, c },
+        };
+        ma.modal_amplitudes(sys);
+        ma.sort();
+        Ok(ma)
+    }
+
+    /// The modes from the state matrix even when the damping is decoupled (for checking the two
+    /// exact methods against each other).
+    pub fn compute_state_space(sys: &LinearSystem) -> Result<ModalAnalysis, AnalysisError> {
+        let n = sys.len();
+        if n == 0 {
+            return Err(AnalysisError::NoMobileModule);
+        }
+        let isq: Vec<f64> = sys.mass.iter().map(|m| 1.0 / m.sqrt()).collect();
+        let scale = |a: &Mat<f64>| Mat::<f64>::from_fn(n, n, |i, j| a[(i, j)] * isq[i] * isq[j]);
+        let (ks, rs) = (scale(&sys.k.dense()), scale(&sys.r.dense()));
+        state_space(
+            sys,
+            &ks,
+            &rs,
+            &isq,
+            Method::StateSpace { coupling: f64::NAN },
+            f64::NAN,
+        )
+    }
+
+    fn sort(&mut self) {
+        self.modes.sort_by(|a, b| {
+            a.freq_hz
+                .total_cmp(&b.freq_hz)
+                .then(b.tau_s.total_cmp(&a.tau_s))
+        });
+    }
+
+    /// Amplitudes of decoupled modes at the outputs, from the initial state and impulses.
+    fn modal_amplitudes(&mut self, sys: &LinearSystem) {
+        let Decomposition::Modal { phi, lambda, c } = &self.decomposition else {
+            return;
+        };
+        let n = sys.len();
+        let fs = sys.rate;
+        for (j, mode) in self.modes.iter_mut().enumerate() {
+            let col = |i: usize| phi[(i, j)];
+            // modal coordinates of the deviation from equilibrium: q = φᵀ M x - φᵀ b / λ
+            let pb: f64 = (0..n).map(|i| col(i) * sys.b[i]).sum();
+            let eq = if mode.kind == ModeKind::Rigid {
+                0.0
+            } else {
+                pb / lambda[j]
+            };
+            let q0: f64 = (0..n)
+                .map(|i| col(i) * sys.mass[i] * sys.x0[i])
+                .sum::<f64>()
+                - eq;
+            let qm1: f64 = (0..n)
+                .map(|i| col(i) * sys.mass[i] * sys.xm1[i])
+                .sum::<f64>()
+                - eq;
+            let envelope = match mode.kind {
+                ModeKind::Oscillating => {
+                    // q(n) = A z^n + conj; z = r e^{iθ}
+                    let theta = mode.freq_hz * std::f64::consts::TAU / fs;
+                    let z = c64::new(mode.radius * theta.cos(), mode.radius * theta.sin());
+                    let w = c64::new(1.0, 0.0) / z;
+                    let u = q0 / 2.0;
+                    let v = (u * w.re - qm1 / 2.0) / w.im;
+                    let mut a = c64::new(u, v);
+                    for &(at, d, f) in &sys.impulses {
+                        let g = col(d) * f;
+                        // 2 Re(A z^{at+1}) = g, 2 Re(A z^at) = 0
+                        let za = z.powf(at as f64);
+                        a += c64::new(0.0, -g / (2.0 * z.im)) / za;
+                    }
+                    2.0 * a.norm()
+                }
+                _ => {
+                    let _ = c[j];
+                    q0.abs().max(qm1.abs())
+                }
+            };
+            mode.amplitudes = sys
+                .outputs
+                .iter()
+                .map(|(_, terms)| {
+                    envelope * terms.iter().map(|&(g, d)| g * col(d)).sum::<f64>().abs()
+                })
+                .collect();
+        }
+    }
+
+    /// The receptance `X_b / F_a` (position at dof `b` per unit force at dof `a`) at `freq_hz`,
+    /// exact for the discrete scheme: `(z M + K + R - 2M + z⁻¹ (M - R))⁻¹` at `z = e^{iω}`.
+    pub fn receptance(&self, a: usize, b: usize, freq_hz: f64, fs: f64) -> c64 {
+        let w = std::f64::consts::TAU * freq_hz / fs;
+        let z = c64::new(w.cos(), w.sin());
+        let zi = c64::new(1.0, 0.0) / z;
+        match &self.decomposition {
+            Decomposition::Modal { phi, lambda, c } => {
+                let mut h = c64::new(0.0, 0.0);
+                for j in 0..lambda.len() {
+                    let den = z + (lambda[j] + c[j] - 2.0) + zi * (1.0 - c[j]);
+                    h += c64::new(phi[(b, j)] * phi[(a, j)], 0.0) / den;
+                }
+                h
+            }
+            Decomposition::State { mu, v_top, vinv_b } => {
+                // X(z) = V_top (zI - diag(mu))^-1 V^-1 B F, with x(n) the top half of the state
+                let mut h = c64::new(0.0, 0.0);
+                for (k, &m) in mu.iter().enumerate() {
+                    h += v_top[(b, k)] * vinv_b[(k, a)] / (z - m);
+                }
+                h
+            }
+        }
+    }
+}
+
+/// Largest number of dofs the dense methods accept.
+pub const DENSE_LIMIT: usize = 4000;
+
+fn check_finite(m: &Mat<f64>, what: &str) -> Result<(), AnalysisError> {
+    for j in 0..m.ncols() {
+        for i in 0..m.nrows() {
+            if !m[(i, j)].is_finite() {
+                return Err(AnalysisError::Singular(format!(
+                    "{what} has a non-finite entry at ({i}, {j})"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn state_space(
+    sys: &LinearSystem,
+    ks: &Mat<f64>,
+    rs: &Mat<f64>,
+    isq: &[f64],
+    method: Method,
+    lambda_max: f64,
+) -> Result<ModalAnalysis, AnalysisError> {
+    let n = sys.len();
+    let fs = sys.rate;
+    // in the scaled coordinates y = M^1/2 x: A = [[2I - Ks - Rs, -I + Rs], [I, 0]]
+    let a = Mat::<f64>::from_fn(2 * n, 2 * n, |i, j| match (i < n, j < n) {
+        (true, true) => (if i == j { 2.0 } else { 0.0 }) - ks[(i, j)] - rs[(i, j)],
+        (true, false) => (if i == j - n { -1.0 } else { 0.0 }) + rs[(i, j - n)],
+        (false, true) => {
+            if i - n == j {
+                1.0
+            } else {
+                0.0
+            }
+        }
+        (false, false) => 0.0,
+    });
+    let eig = a
+        .eigen()
+        .map_err(|e| AnalysisError::NoConvergence(format!("{e:?}")))?;
+    let vv = eig.U().to_owned();
+    let mu: Vec<c64> = (0..2 * n).map(|k| eig.S()[k]).collect();
+    let lu = vv.partial_piv_lu();
+    use faer::linalg::solvers::Solve;
+    // B in scaled coordinates: force F on x gives M^-1/2 F on y → input matrix [M^-1/2; 0]
+    let bmat = Mat::<c64>::from_fn(2 * n, n, |i, j| {
+        if i == j {
+            c64::new(isq[j], 0.0)
+        } else {
+            c64::new(0.0, 0.0)
+        }
+    });
+    let vinv_b = lu.solve(&bmat);
+    // back to x = M^-1/2 y for the output half
+    let v_top = Mat::<c64>::from_fn(n, 2 * n, |i, k| vv[(i, k)] * isq[i]);
+    // initial deviation state, scaled: s0 = M^1/2 [x0 - xeq; xm1 - xeq]
+    let kd = sys.k.dense();
+    let xeq = equilibrium(&kd, &sys.b);
+    let s0 = Mat::<c64>::from_fn(2 * n, 1, |i, _| {
+        let (x, d) = if i < n {
+            (sys.x0[i], i)
+        } else {
+            (sys.xm1[i - n], i - n)
+        };
+        c64::new((x - xeq[d]) / isq[d], 0.0)
+    });
+    let mut coeff = lu.solve(&s0);
+    for &(at, d, f) in &sys.impulses {
+        for k in 0..2 * n {
+            let step = mu[k].powf((at + 1) as f64);
+            coeff[(k, 0)] += vinv_b[(k, d)] * f / step;
+        }
+    }
+    let mut modes = Vec::new();
+    let mut reals: Vec<usize> = Vec::new();
+    for k in 0..2 * n {
+        let m = mu[k];
+        if m.im.abs() <= 1e-14 * m.norm().max(1e-300) {
+            reals.push(k);
+            continue;
+        }
+        if m.im < 0.0 {
+            continue;
+        }
+        let r = m.norm();
+        let theta = m.im.atan2(m.re);
+        let mut mode = finish(
+            ModeKind::Oscillating,
+            theta * fs / std::f64::consts::TAU,
+            tau(r, fs),
+            r,
+            f64::NAN,
+        );
+        let shape: Vec<f64> = (0..n).map(|i| v_top[(i, k)].norm()).collect();
+        let peak = shape
+            .iter()
+            .fold(0.0f64, |a, &b| a.max(b))
+            .max(f64::MIN_POSITIVE);
+        mode.shape = shape.iter().map(|s| s / peak).collect();
+        mode.amplitudes = sys
+            .outputs
+            .iter()
+            .map(|(_, terms)| {
+                let y: c64 = terms.iter().map(|&(g, d)| v_top[(d, k)] * g).sum();
+                2.0 * (coeff[(k, 0)] * y).norm()
+            })
+            .collect();
+        modes.push(mode);
+    }
+    reals.sort_by(|&a, &b| mu[b].re.abs().total_cmp(&mu[a].re.abs()));
+    for pair in reals.chunks(2) {
+        let k = pair[0];
+        let r = mu[k].norm();
+        let mut mode = finish(
+            ModeKind::NonOscillating,
+            if mu[k].re < 0.0 { fs / 2.0 } else { 0.0 },
+            tau(r, fs),
+            r,
+            f64::NAN,
+        );
+        mode.shape = (0..n).map(|i| v_top[(i, k)].norm()).collect();
+        mode.amplitudes = sys
+            .outputs
+            .iter()
+            .map(|(_, terms)| {
+                pair.iter()
+                    .map(|&k| {
+                        (coeff[(k, 0)] * terms.iter().map(|&(g, d)| v_top[(d, k)] * g).sum::<c64>())
+                            .norm()
+                    })
+                    .sum()
+            })
+            .collect();
+        modes.push(mode);
+    }
+    let mut ma = ModalAnalysis {
+        max_radius: mu.iter().fold(0.0f64, |a, m| a.max(m.norm())),
+        modes,
+        method,
+        lambda_max,
+        decomposition: Decomposition::State { mu, v_top, vinv_b },
+    };
+    ma.sort();
+    Ok(ma)
+}
+
+/// The static equilibrium `K x = b` (least squares on free-floating parts: their rigid motion is
+/// left as it is).
+pub fn equilibrium(k: &Mat<f64>, b: &[f64]) -> Vec<f64> {
+    let n = b.len();
+    let evd = match k.self_adjoint_eigen(faer::Side::Lower) {
+        Ok(e) => e,
+        Err(_) => return vec![0.0; n],
+    };
+    let (u, s) = (evd.U(), evd.S());
+    let smax = (0..n).fold(0.0f64, |a, j| a.max(s[j].abs()));
+    let mut x = vec![0.0; n];
+    for j in 0..n {
+        if s[j].abs() > 1e-12 * smax {
+            let p: f64 = (0..n).map(|i| u[(i, j)] * b[i]).sum::<f64>() / s[j];
+            for (i, xi) in x.iter_mut().enumerate() {
+                *xi += p * u[(i, j)];
+            }
+        }
+    }
+    x
+}
