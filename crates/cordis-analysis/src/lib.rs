@@ -7,11 +7,20 @@
 // `!(x > 0.0)` rejects NaN along with the out-of-range values: intended.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+mod export;
 mod linear;
+mod matrices;
 mod modes;
+mod sparse;
 
+pub use export::{
+    graph_dot, parse_spice_ac, spice_netlist, spice_node_names, SpiceAc, SpiceOptions,
+};
+pub use faer;
 pub use linear::{LinearSystem, SymSparse};
+pub use matrices::{rows, Matrices};
 pub use modes::{equilibrium, Method, ModalAnalysis, Mode, ModeKind, DENSE_LIMIT};
+pub use sparse::{lowest_modes, receptance_sparse, LowestModes, SparseMethod};
 
 /// Why an analysis could not be done.
 #[derive(Clone, Debug, PartialEq)]
@@ -37,6 +46,9 @@ pub enum AnalysisError {
         /// A suggestion.
         hint: String,
     },
+    /// A request the model cannot satisfy (a mode count of 0 or above the number of dofs, a dof
+    /// out of range).
+    InvalidRequest(String),
 }
 
 impl std::fmt::Display for AnalysisError {
@@ -47,6 +59,7 @@ impl std::fmt::Display for AnalysisError {
             AnalysisError::NoConvergence(s) => write!(f, "the eigenvalue solver did not converge: {s}"),
             AnalysisError::TooLarge { dofs, limit } => write!(f, "the model has {dofs} mobile modules; the dense analysis handles at most {limit} (hint: ask for the lowest modes only with --count N)"),
             AnalysisError::UnknownModule { name, hint } => write!(f, "`{name}` is not a mobile module of the model ({hint})"),
+            AnalysisError::InvalidRequest(s) => write!(f, "{s}"),
         }
     }
 }

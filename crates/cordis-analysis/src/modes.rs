@@ -422,7 +422,28 @@ fn state_space(
     }
     let mut modes = Vec::new();
     let mut reals: Vec<usize> = Vec::new();
+    // Each free-floating part has a double pole at z = 1 (its rigid motion). A double root is
+    // perturbed by about sqrt(eps) in floating point, which could read as a radius above 1: the
+    // 2 poles per part nearest to 1 are the rigid modes, exactly.
+    let mut rigid: Vec<usize> = (0..2 * n)
+        .filter(|&k| (mu[k] - c64::new(1.0, 0.0)).norm() < 1e-6)
+        .collect();
+    rigid.sort_by(|&a, &b| {
+        (mu[a] - c64::new(1.0, 0.0))
+            .norm()
+            .total_cmp(&(mu[b] - c64::new(1.0, 0.0)).norm())
+    });
+    rigid.truncate(2 * sys.free_parts.len());
+    for _ in 0..rigid.len() / 2 {
+        let mut mode = finish(ModeKind::Rigid, 0.0, f64::INFINITY, 1.0, 0.0);
+        mode.amplitudes = vec![0.0; sys.outputs.len()];
+        mode.shape = vec![0.0; n];
+        modes.push(mode);
+    }
     for k in 0..2 * n {
+        if rigid.contains(&k) {
+            continue;
+        }
         let m = mu[k];
         if m.im.abs() <= 1e-14 * m.norm().max(1e-300) {
             reals.push(k);
@@ -483,7 +504,7 @@ fn state_space(
         modes.push(mode);
     }
     let mut ma = ModalAnalysis {
-        max_radius: mu.iter().fold(0.0f64, |a, m| a.max(m.norm())),
+        max_radius: modes.iter().fold(0.0f64, |a, m| a.max(m.radius)),
         modes,
         method,
         lambda_max,

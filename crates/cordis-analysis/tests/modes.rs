@@ -332,3 +332,44 @@ fn the_response_equals_the_dtft_of_a_rendered_impulse_response() {
         assert!(at(f1) > at(f1 * 0.98) && at(f1) > at(f1 * 1.02));
     }
 }
+
+#[test]
+fn a_damped_free_floating_part_is_not_reported_unstable() {
+    // a, MC1, MC2, b float freely (no spring to a fixed point) and the device's BUTs damp
+    // unevenly: state-space method, with a double pole at z = 1 that must stay at radius 1.
+    let m =
+        load("sol g\nmas a M=1\nmas b M=1\nbond good a b mC=0.2 KL=0.1 S=0.1 KR=0.05\nsox o a\n");
+    let sys = LinearSystem::from_model(&m).unwrap();
+    assert_eq!(sys.free_parts.len(), 1);
+    let ma = ModalAnalysis::compute(&sys).unwrap();
+    assert!(matches!(ma.method, Method::StateSpace { .. }));
+    assert_eq!(
+        ma.modes
+            .iter()
+            .filter(|md| md.kind == ModeKind::Rigid)
+            .count(),
+        1
+    );
+    assert_eq!(ma.modes.len(), 4);
+    assert!(ma.max_radius <= 1.0, "{}", ma.max_radius);
+}
+
+#[test]
+fn non_finite_or_singular_input_is_an_error_not_a_panic() {
+    let m = load("string s n=3 M=1 K=0.1\nsox o s[0]\n");
+    let mut sys = LinearSystem::from_model(&m).unwrap();
+    sys.mass[1] = 0.0;
+    assert!(matches!(
+        ModalAnalysis::compute(&sys),
+        Err(cordis_analysis::AnalysisError::Singular(_))
+    ));
+    let mut sys = LinearSystem::from_model(&m).unwrap();
+    sys.k.diag[0] = f64::NAN;
+    let e = ModalAnalysis::compute(&sys).unwrap_err();
+    assert!(e.to_string().contains("non-finite"), "{e}");
+    let empty = load("sol g\nsox o g\n");
+    assert_eq!(
+        LinearSystem::from_model(&empty).unwrap_err(),
+        cordis_analysis::AnalysisError::NoMobileModule
+    );
+}

@@ -3,6 +3,7 @@
 //! The only crate that knows about terminals, files and exit codes. Libraries return typed errors;
 //! they are rendered here.
 
+mod analysis;
 mod output;
 mod pictures;
 mod render;
@@ -72,6 +73,128 @@ Exit codes: 0 valid and stable, 1 invalid, 2 bad command line, 3 valid but unsta
 
 Exit codes: 0 ok, 1 the WAV file cannot be read, 2 bad command line, 4 the PNG could not be written.")]
     Spectrogram(SpectrogramArgs),
+    /// List the modes of a model, exact for the discrete scheme: frequency, decay time, T60, Q, and
+    /// the amplitude each pickup (sox) hears for the model's initial conditions and impulses.
+    #[command(after_help = "Examples:
+  cordis modes examples/plucked_string.cordis
+  cordis modes model.cordis --json > modes.json
+  cordis modes model.cordis --plot modes.png --max-freq 4000
+
+The model is linearised at its initial positions (a BUT counts if it is in contact there, an LNL
+with the slopes of its curves); the report says what was linearised.
+Exit codes: 0 ok and stable, 1 invalid model, 2 bad command line, 3 unstable (a pole outside the unit circle), 4 the plot could not be written.")]
+    Modes(ModesArgs),
+    /// Write the matrices of a model: M, K, R, the finite-difference form and the state space.
+    #[command(after_help = "Examples:
+  cordis matrices model.cordis -o model.json
+  cordis matrices model.cordis --csv model_matrices/
+
+JSON holds every matrix as a list of rows, with `order` naming the rows (the mobile modules).
+CSV writes one file per matrix (M.csv, K.csv, R.csv, A1.csv, A0.csv, Am1.csv, Ad.csv, Bd.csv,
+Cd.csv, Dd.csv, b.csv) plus order.csv and a README.txt. GENESIS units throughout.")]
+    Matrices(MatricesArgs),
+    /// Frequency response from a force at one module to the position at another, exact in
+    /// z = e^{iw} for the discrete scheme: receptance, mobility (admittance), position transfer.
+    #[command(after_help = "Examples:
+  cordis response examples/plucked_string.cordis --force-at 's[3]' --listen-at 's[10]' -o resp.csv
+  cordis response model.cordis --force-at m1 --listen-at m2 --from 20 --to 5000 --points 2000 --plot resp.png
+
+CSV columns: freq_hz, receptance (X_B/F_A), mobility (V_B/F_A, velocity per sample), transfer
+(X_B/X_A), and the driving-point mobility at A, each as magnitude and phase (rad). GENESIS units.")]
+    Response(ResponseCmd),
+    /// Write the network as a Graphviz graph: material modules as nodes, interactions as edges.
+    #[command(after_help = "Examples:
+  cordis graph examples/bouncing_ball.cordis -o ball.dot && dot -Tpng ball.dot -o ball.png")]
+    Graph(GraphArgs),
+    /// Export a model to another tool.
+    #[command(subcommand)]
+    Export(ExportCmd),
+}
+
+#[derive(Args)]
+struct GraphArgs {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// The .dot file to write (default: standard output).
+    #[arg(short, long, value_name = "FILE.dot")]
+    output: Option<PathBuf>,
+}
+
+#[derive(Subcommand)]
+enum ExportCmd {
+    /// The mobility electrical analogue as a SPICE netlist (velocities are voltages, masses
+    /// capacitors to ground, springs inductors, dampers resistors, a 1 A AC source as the force).
+    #[command(after_help = "Examples:
+  cordis export spice model.cordis --force-at m1 -o model.cir && ngspice -b model.cir
+
+Physical units (k = K Fs^2, z = Z Fs); the netlist's comments say which node is which module.
+The continuous circuit agrees with the discrete model at low frequency (below about Fs/200).")]
+    Spice(SpiceArgs),
+}
+
+#[derive(Args)]
+struct SpiceArgs {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// The mobile module the 1 A AC source drives (default: the first one).
+    #[arg(long, value_name = "MODULE")]
+    force_at: Option<String>,
+    /// The netlist to write (default: standard output).
+    #[arg(short, long, value_name = "FILE.cir")]
+    output: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct ModesArgs {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    json: bool,
+    /// Draw the modes over the spectrum of a 2 s render of output 0.
+    #[arg(long, value_name = "OUT.png")]
+    plot: Option<PathBuf>,
+    #[command(flatten)]
+    spec: SpecArgs,
+}
+
+#[derive(Args)]
+struct MatricesArgs {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// JSON file to write (default: standard output).
+    #[arg(short, long, value_name = "FILE.json")]
+    output: Option<PathBuf>,
+    /// Write CSV files into this folder instead of JSON.
+    #[arg(long, value_name = "DIR", conflicts_with = "output")]
+    csv: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct ResponseCmd {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// The mobile module the force is applied to.
+    #[arg(long, value_name = "MODULE")]
+    force_at: String,
+    /// The mobile module whose position is read.
+    #[arg(long, value_name = "MODULE")]
+    listen_at: String,
+    /// Lowest frequency, Hz.
+    #[arg(long, value_name = "HZ", default_value_t = 10.0)]
+    from: f64,
+    /// Highest frequency, Hz (default: 0.99 of Nyquist).
+    #[arg(long, value_name = "HZ")]
+    to: Option<f64>,
+    /// Number of log-spaced frequencies.
+    #[arg(long, value_name = "N", default_value_t = 1000)]
+    points: usize,
+    /// CSV file to write (default: standard output).
+    #[arg(short, long, value_name = "FILE.csv")]
+    output: Option<PathBuf>,
+    /// Draw a Bode plot (magnitude and phase over log frequency).
+    #[arg(long, value_name = "OUT.png")]
+    plot: Option<PathBuf>,
 }
 
 /// Spectrogram drawing options (shared by `spectrogram` and `render --spectrogram`).
@@ -236,6 +359,24 @@ fn main() -> ExitCode {
         Command::Render(a) => render::render(&a),
         Command::Check(a) => render::check(&a),
         Command::Spectrogram(a) => render::spectrogram(&a.input, &a.output, a.channel, &a.spec),
+        Command::Modes(a) => analysis::modes(&a.model, a.json, a.plot.as_ref(), &a.spec),
+        Command::Matrices(a) => analysis::matrices(&a.model, a.output.as_ref(), a.csv.as_ref()),
+        Command::Graph(a) => analysis::graph(&a.model, a.output.as_ref()),
+        Command::Export(ExportCmd::Spice(a)) => {
+            analysis::spice(&a.model, a.force_at.as_deref(), a.output.as_ref())
+        }
+        Command::Response(a) => analysis::response(
+            &a.model,
+            &analysis::ResponseArgs {
+                force_at: &a.force_at,
+                listen_at: &a.listen_at,
+                from_hz: a.from,
+                to_hz: a.to,
+                points: a.points,
+                output: a.output.as_ref(),
+                plot: a.plot.as_ref(),
+            },
+        ),
     };
     ExitCode::from(code)
 }

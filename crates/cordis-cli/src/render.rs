@@ -96,7 +96,24 @@ pub fn check(args: &ModelArgs) -> u8 {
         outs.join(", ")
     );
     let s = stability::check(&model);
-    let all_stable = s.stable && model.devices.iter().all(|d| d.is_stable());
+    // The exact verdict: the largest pole radius of the network linearised at rest (dense, so for
+    // models up to POLE_LIMIT mobile modules); beyond, the eigenvalue bound of FORMALISM.md.
+    const POLE_LIMIT: usize = 600;
+    let poles = cordis_analysis::LinearSystem::from_model(&model)
+        .ok()
+        .filter(|sys| sys.len() <= POLE_LIMIT)
+        .and_then(|sys| {
+            cordis_analysis::ModalAnalysis::compute(&sys)
+                .ok()
+                .map(|ma| (sys, ma))
+        });
+    let network_stable = match &poles {
+        Some((_, ma)) => ma.max_radius <= 1.0 + 1e-12,
+        None => s.lambda_max < 4.0,
+    };
+    let all_stable = network_stable
+        && s.cels.iter().all(|c| c.stable)
+        && model.devices.iter().all(|d| d.is_stable());
     outln!(
         out,
         "stability: {}",
@@ -112,7 +129,18 @@ pub fn check(args: &ModelArgs) -> u8 {
             if c.stable { "stable" } else { "UNSTABLE" }
         );
     }
-    if net.materials.iter().any(Material::is_mobile) {
+    if let Some((sys, ma)) = &poles {
+        outln!(
+            out,
+            "  network (linearised at rest, {} mobile modules): largest pole radius {:.12} (must be <= 1): {}",
+            sys.len(),
+            ma.max_radius,
+            if ma.max_radius <= 1.0 + 1e-12 { "stable" } else { "UNSTABLE" }
+        );
+        if s.includes_nonlinear && s.lambda_max >= 4.0 {
+            outln!(out, "  warning: with every BUT and LNL at its stiffest the largest eigenvalue of M^-1 K is {:.6} (>= 4): the model may blow up when they engage", s.lambda_max);
+        }
+    } else if net.materials.iter().any(Material::is_mobile) {
         outln!(out,
             "  network: largest eigenvalue of M^-1 K = {:.6} (must be < 4; Gershgorin bound {:.6}){}",
             s.lambda_max,
@@ -143,7 +171,35 @@ pub fn check(args: &ModelArgs) -> u8 {
             }
         );
     }
-    if !s.offenders.is_empty() {
+    let unstable_mode = poles.as_ref().and_then(|(sys, ma)| {
+        let worst = ma
+            .modes
+            .iter()
+            .max_by(|a, b| a.radius.total_cmp(&b.radius))?;
+        (worst.radius > 1.0 + 1e-12).then(|| {
+            let peak = worst.shape.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            let mut at: Vec<(usize, f64)> = worst
+                .shape
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| v.abs() >= 0.5 * peak)
+                .map(|(i, v)| (i, v.abs()))
+                .collect();
+            at.sort_by(|a, b| b.1.total_cmp(&a.1));
+            at.into_iter()
+                .take(8)
+                .map(|(i, _)| sys.names[i].clone())
+                .collect::<Vec<_>>()
+        })
+    });
+    if let Some(names) = unstable_mode {
+        outln!(
+            out,
+            "  at fault: {} (where the growing mode lives)",
+            names.join(", ")
+        );
+        outln!(out, "  hint: lower the stiffness or viscosity of the links at these modules, make them heavier, or raise the rate");
+    } else if poles.is_none() && !s.offenders.is_empty() {
         let list: Vec<String> = s
             .offenders
             .iter()

@@ -327,7 +327,7 @@ fn check_reports_counts_and_verdicts() {
         "outputs       3: pos (sox c), pm (sox m), force (sof r)",
         "stability: stable",
         "cel c:",
-        "largest eigenvalue of M^-1 K = 0.010000",
+        "network (linearised at rest, 2 mobile modules): largest pole radius 0.99997",
     ] {
         assert!(
             r.stdout.contains(needle),
@@ -765,4 +765,185 @@ fn the_instrumentarium_does_what_its_documentation_says() {
         "{}",
         springs[0]
     );
+}
+
+const CHAIN: &str = "string s n=5 M=1 K=0.3 Z=2e-4 ends=fixed,fixed\nenf hit s[1] signal=impulse(at=0, amp=1)\nsox o s[0]\nsox mid s[2]\n";
+
+#[test]
+fn modes_matrices_and_response_as_a_user_runs_them() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "chain.cordis", CHAIN);
+    // the table: 5 modes, the first at the closed form of a fixed-fixed chain
+    let r = cordis(dir.path(), &["modes", "chain.cordis"]);
+    expect_code!(r, 0);
+    assert!(
+        r.stdout.contains("5 modes of 5 mobile modules") && r.stdout.contains("decoupled"),
+        "{}",
+        r.stdout
+    );
+    // closed form: λ1 = 4 K sin²(π/12) for a fixed-fixed chain of 5; proportional damping
+    // c = (Z/K) λ makes mode 1 a CEL: r = sqrt(1 - c), cos θ = (2 - λ - c) / (2r), f = θ Fs / 2π
+    let lambda = 4.0 * 0.3 * (std::f64::consts::PI / 12.0).sin().powi(2);
+    let c = 2e-4 / 0.3 * lambda;
+    let theta = ((2.0 - lambda - c) / (2.0 * (1.0 - c).sqrt())).acos();
+    let f1 = theta * 44100.0 / std::f64::consts::TAU;
+    assert!(
+        r.stdout.contains(&format!("{f1:.4}")),
+        "{f1:.4} missing in\n{}",
+        r.stdout
+    );
+    // JSON parses and agrees
+    let r = cordis(
+        dir.path(),
+        &["modes", "chain.cordis", "--json", "--plot", "m.png"],
+    );
+    expect_code!(r, 0);
+    let doc: serde_json::Value = serde_json::from_str(&r.stdout).unwrap();
+    assert_eq!(doc["modes"].as_array().unwrap().len(), 5);
+    assert!((doc["modes"][0]["freq_hz"].as_f64().unwrap() - f1).abs() < 1e-9);
+    assert_eq!(doc["outputs"][1], "mid");
+    assert!(png_size(&dir.path().join("m.png")).0 >= 240);
+    // matrices as JSON and CSV
+    let r = cordis(dir.path(), &["matrices", "chain.cordis", "-o", "m.json"]);
+    expect_code!(r, 0);
+    let mj: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("m.json")).unwrap()).unwrap();
+    assert_eq!(mj["order"][0], "s[0]");
+    assert_eq!(mj["K"][0][0].as_f64(), Some(0.6));
+    assert_eq!(mj["K"][0][1].as_f64(), Some(-0.3));
+    assert_eq!(mj["state_space"]["Ad"].as_array().unwrap().len(), 10);
+    let r = cordis(dir.path(), &["matrices", "chain.cordis", "--csv", "mx"]);
+    expect_code!(r, 0);
+    let k = std::fs::read_to_string(dir.path().join("mx/K.csv")).unwrap();
+    assert_eq!(k.lines().count(), 5);
+    // response: a peak at the first mode
+    let r = cordis(
+        dir.path(),
+        &[
+            "response",
+            "chain.cordis",
+            "--force-at",
+            "s[1]",
+            "--listen-at",
+            "s[0]",
+            "--from",
+            "100",
+            "--to",
+            "2000",
+            "--points",
+            "2000",
+            "-o",
+            "r.csv",
+            "--plot",
+            "r.png",
+        ],
+    );
+    expect_code!(r, 0);
+    let rows: Vec<Vec<f64>> = std::fs::read_to_string(dir.path().join("r.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 2000);
+    let best = rows.iter().max_by(|a, b| a[1].total_cmp(&b[1])).unwrap();
+    assert!(
+        (best[0] - f1).abs() / f1 < 0.01,
+        "response peak at {} Hz, first mode {f1}",
+        best[0]
+    );
+}
+
+#[test]
+fn analysis_bad_input_is_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "chain.cordis", CHAIN);
+    write(dir.path(), "empty.cordis", "sol g\nsox o g\n");
+    let r = cordis(dir.path(), &["modes", "empty.cordis"]);
+    expect_code!(r, 1);
+    assert!(r.stderr.contains("no mobile module"), "{}", r.stderr);
+    let r = cordis(
+        dir.path(),
+        &[
+            "response",
+            "chain.cordis",
+            "--force-at",
+            "s[9]",
+            "--listen-at",
+            "s[0]",
+        ],
+    );
+    expect_code!(r, 2);
+    assert!(
+        r.stderr.contains("`s[9]` is not a module of the model")
+            && r.stderr.contains("did you mean"),
+        "{}",
+        r.stderr
+    );
+    let r = cordis(
+        dir.path(),
+        &[
+            "response",
+            "chain.cordis",
+            "--force-at",
+            "s.left",
+            "--listen-at",
+            "s[0]",
+        ],
+    );
+    expect_code!(r, 2);
+    assert!(r.stderr.contains("fixed module"), "{}", r.stderr);
+    let r = cordis(
+        dir.path(),
+        &[
+            "response",
+            "chain.cordis",
+            "--force-at",
+            "s[1]",
+            "--listen-at",
+            "s[0]",
+            "--to",
+            "30000",
+        ],
+    );
+    expect_code!(r, 2);
+    assert!(r.stderr.contains("Nyquist"), "{}", r.stderr);
+    assert!(!r.stderr.contains("panicked"));
+}
+
+#[test]
+fn graph_and_spice_exports() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "chain.cordis", CHAIN);
+    let r = cordis(dir.path(), &["graph", "chain.cordis", "-o", "g.dot"]);
+    expect_code!(r, 0);
+    let dot = std::fs::read_to_string(dir.path().join("g.dot")).unwrap();
+    assert!(
+        dot.contains("digraph") && dot.contains("\"s[0]\"") && dot.contains("REF"),
+        "{dot}"
+    );
+    let r = cordis(
+        dir.path(),
+        &[
+            "export",
+            "spice",
+            "chain.cordis",
+            "--force-at",
+            "s[1]",
+            "-o",
+            "c.cir",
+        ],
+    );
+    expect_code!(r, 0);
+    let cir = std::fs::read_to_string(dir.path().join("c.cir")).unwrap();
+    assert!(
+        cir.contains(".ac dec") && cir.lines().filter(|l| l.starts_with('C')).count() == 5,
+        "{cir}"
+    );
+    let r = cordis(
+        dir.path(),
+        &["export", "spice", "chain.cordis", "--force-at", "s[7]"],
+    );
+    expect_code!(r, 2);
+    assert!(r.stderr.contains("did you mean"), "{}", r.stderr);
 }

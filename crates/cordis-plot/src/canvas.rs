@@ -189,6 +189,137 @@ impl Canvas {
     }
 }
 
+/// Anti-aliased coverage over a clip rectangle, painted in one colour once complete, so that the
+/// segments of one line do not darken where they meet and nothing spills out of the plot.
+pub(crate) struct Layer {
+    x0: i64,
+    y0: i64,
+    width: usize,
+    height: usize,
+    coverage: Vec<f32>,
+}
+
+impl Layer {
+    /// An empty layer clipped to `[x0, x1) x [y0, y1)`.
+    pub(crate) fn new(x0: i64, y0: i64, x1: i64, y1: i64) -> Layer {
+        let width = (x1 - x0).max(0) as usize;
+        let height = (y1 - y0).max(0) as usize;
+        Layer {
+            x0,
+            y0,
+            width,
+            height,
+            coverage: vec![0.0; width * height],
+        }
+    }
+
+    /// Visits the pixels of the layer inside the box `[xa, xb] x [ya, yb]` (continuous
+    /// coordinates), calling `cov` with each pixel centre and keeping the largest coverage.
+    fn shade(&mut self, xa: f64, ya: f64, xb: f64, yb: f64, cov: impl Fn(f64, f64) -> f64) {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let px0 = ((xa.floor() as i64) - self.x0).clamp(0, w);
+        let px1 = ((xb.ceil() as i64) - self.x0 + 1).clamp(0, w);
+        let py0 = ((ya.floor() as i64) - self.y0).clamp(0, h);
+        let py1 = ((yb.ceil() as i64) - self.y0 + 1).clamp(0, h);
+        for py in py0..py1 {
+            let cy = (self.y0 + py) as f64 + 0.5;
+            for px in px0..px1 {
+                let cx = (self.x0 + px) as f64 + 0.5;
+                let a = cov(cx, cy).clamp(0.0, 1.0) as f32;
+                let c = &mut self.coverage[py as usize * self.width + px as usize];
+                *c = c.max(a);
+            }
+        }
+    }
+
+    /// A straight line from `a` to `b`, `width` pixels thick, with round ends.
+    pub(crate) fn segment(&mut self, a: (f64, f64), b: (f64, f64), width: f64) {
+        let hw = width / 2.0;
+        let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+        let len2 = dx * dx + dy * dy;
+        let reach = hw + 1.0;
+        self.shade(
+            a.0.min(b.0) - reach,
+            a.1.min(b.1) - reach,
+            a.0.max(b.0) + reach,
+            a.1.max(b.1) + reach,
+            |x, y| {
+                let t = if len2 > 0.0 {
+                    (((x - a.0) * dx + (y - a.1) * dy) / len2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let (ex, ey) = (x - a.0 - t * dx, y - a.1 - t * dy);
+                hw + 0.5 - (ex * ex + ey * ey).sqrt()
+            },
+        );
+    }
+
+    /// Connected segments through `points`.
+    pub(crate) fn polyline(&mut self, points: &[(f64, f64)], width: f64) {
+        if let [p] = points {
+            self.segment(*p, *p, width);
+        }
+        for pair in points.windows(2) {
+            self.segment(pair[0], pair[1], width);
+        }
+    }
+
+    /// A filled disc.
+    pub(crate) fn disc(&mut self, centre: (f64, f64), radius: f64) {
+        let (cx, cy) = centre;
+        let reach = radius + 1.0;
+        self.shade(cx - reach, cy - reach, cx + reach, cy + reach, |x, y| {
+            radius + 0.5 - ((x - cx).powi(2) + (y - cy).powi(2)).sqrt()
+        });
+    }
+
+    /// A filled triangle (any winding).
+    pub(crate) fn triangle(&mut self, p: [(f64, f64); 3]) {
+        let area = (p[1].0 - p[0].0) * (p[2].1 - p[0].1) - (p[2].0 - p[0].0) * (p[1].1 - p[0].1);
+        if area == 0.0 {
+            return;
+        }
+        let sign = area.signum();
+        // Outward distance from each edge; the largest is the distance outside the shape.
+        let edges: Vec<(f64, f64, f64)> = (0..3)
+            .map(|i| {
+                let (a, b) = (p[i], p[(i + 1) % 3]);
+                let (nx, ny) = (sign * (b.1 - a.1), -sign * (b.0 - a.0));
+                let n = (nx * nx + ny * ny).sqrt();
+                (nx / n, ny / n, -(nx * a.0 + ny * a.1) / n)
+            })
+            .collect();
+        let xs = p.iter().map(|q| q.0);
+        let ys = p.iter().map(|q| q.1);
+        let (xa, xb) = (
+            xs.clone().fold(f64::MAX, f64::min),
+            xs.fold(f64::MIN, f64::max),
+        );
+        let (ya, yb) = (
+            ys.clone().fold(f64::MAX, f64::min),
+            ys.fold(f64::MIN, f64::max),
+        );
+        self.shade(xa - 1.0, ya - 1.0, xb + 1.0, yb + 1.0, |x, y| {
+            let outside = edges
+                .iter()
+                .map(|(nx, ny, c)| nx * x + ny * y + c)
+                .fold(f64::MIN, f64::max);
+            0.5 - outside
+        });
+    }
+
+    /// Blends the layer into `canvas` in colour `c`.
+    pub(crate) fn paint(&self, canvas: &mut Canvas, c: [u8; 3]) {
+        for (i, &a) in self.coverage.iter().enumerate() {
+            if a > 0.0 {
+                let (px, py) = (i % self.width, i / self.width);
+                canvas.blend(self.x0 + px as i64, self.y0 + py as i64, c, a);
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -2,16 +2,16 @@
 //! nothing is cut off at any size. Pixels are drawn on our own [`Canvas`]; the PNG
 //! backend only encodes the PNG.
 
-use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use crate::canvas::{measure, Canvas, HAlign, VAlign, INK, PAPER};
+use crate::canvas::{Canvas, HAlign, VAlign, INK, PAPER};
 use crate::colormap::magma;
+use crate::figure::{self, linear_axis, Style, Title};
 use crate::stft::Plan;
 use crate::ticks;
 use crate::{PlotError, Spectrogram, SpectrogramOptions};
 
-/// Draws the figure into a hidden temporary beside `path`, then renames it into place.
+/// Draws the figure and writes it to `path` (see [`figure::save`]).
 pub(crate) fn write_png(
     spec: &Spectrogram,
     plan: &Plan,
@@ -19,67 +19,7 @@ pub(crate) fn write_png(
     opts: &SpectrogramOptions,
     path: &Path,
 ) -> Result<(), PlotError> {
-    let name = path.file_name().ok_or_else(|| {
-        PlotError::Draw(format!(
-            "{} names no file (hint: give a path such as spectrogram.png)",
-            path.display()
-        ))
-    })?;
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    if !dir.is_dir() {
-        return Err(PlotError::Draw(format!(
-            "cannot write {}: the folder {} does not exist (hint: create it first)",
-            path.display(),
-            dir.display()
-        )));
-    }
-    let canvas = draw_figure(spec, plan, duration, opts)?;
-    // A device, pipe or other special file (`/dev/stdout`) is written in place: renaming a
-    // temporary over it would replace it.
-    if fs::metadata(path).is_ok_and(|m| !m.is_file()) {
-        return encode(&canvas, path);
-    }
-    let tmp = dir.join(format!(
-        ".{}.{}.partial.png",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let written = encode(&canvas, &tmp).and_then(|()| {
-        fs::rename(&tmp, path).map_err(|e| {
-            PlotError::Draw(format!(
-                "cannot write {}: {e} (hint: check the folder is writable)",
-                path.display()
-            ))
-        })
-    });
-    if written.is_err() {
-        let _ = fs::remove_file(&tmp);
-    }
-    written
-}
-
-fn encode(canvas: &Canvas, file: &Path) -> Result<(), PlotError> {
-    let fail = |e: &dyn std::fmt::Display| {
-        PlotError::Draw(format!(
-            "cannot write {}: {e} (hint: check the folder is writable)",
-            file.display()
-        ))
-    };
-    let out = fs::File::create(file).map_err(|e| fail(&e))?;
-    let mut encoder = png::Encoder::new(
-        std::io::BufWriter::new(out),
-        canvas.width as u32,
-        canvas.height as u32,
-    );
-    encoder.set_color(png::ColorType::Rgb);
-    encoder.set_depth(png::BitDepth::Eight);
-    encoder.set_compression(png::Compression::Best);
-    let mut writer = encoder.write_header().map_err(|e| fail(&e))?;
-    writer.write_image_data(&canvas.rgb).map_err(|e| fail(&e))?;
-    writer.finish().map_err(|e| fail(&e))
+    figure::save(path, || draw_figure(spec, plan, duration, opts))
 }
 
 /// How a pixel reads the dB matrix along one axis: the maximum over the samples (frames or
@@ -129,34 +69,6 @@ fn picks(points: &[f64], n_px: usize, edge: impl Fn(usize) -> f64) -> Vec<Pick> 
         .collect()
 }
 
-/// Linear ticks over `[lo, hi]` drawn on `len_px` pixels: the finest 1-2-5 step whose labels
-/// (from `label`) keep `min_gap_px` plus their own extent (`extent`) apart.
-fn linear_axis(
-    lo: f64,
-    hi: f64,
-    len_px: f64,
-    min_gap_px: f64,
-    label: impl Fn(f64, usize) -> String,
-    extent: impl Fn(&str) -> Result<f64, PlotError>,
-) -> Result<(Vec<f64>, usize), PlotError> {
-    let span = hi - lo;
-    let mut target = ((len_px / min_gap_px).floor() as usize).max(1);
-    loop {
-        let step = ticks::nice_step(span, target);
-        let dec = ticks::decimals(step);
-        let values = ticks::linear_ticks(lo, hi, step);
-        let mut widest = 0.0f64;
-        for v in &values {
-            widest = widest.max(extent(&label(*v, dec))?);
-        }
-        let spacing = step / span * len_px;
-        if spacing >= widest + min_gap_px || target == 1 {
-            return Ok((values, dec));
-        }
-        target -= 1;
-    }
-}
-
 fn draw_figure(
     spec: &Spectrogram,
     plan: &Plan,
@@ -165,36 +77,22 @@ fn draw_figure(
 ) -> Result<Canvas, PlotError> {
     let (w, h) = (opts.width as usize, opts.height as usize);
     // Everything scales with the picture; 1200 x 600 is the reference.
-    let s = (w as f64 / 1200.0).min(h as f64 / 600.0).clamp(0.5, 4.0);
-    let tick_size = 16.0 * s;
-    let desc_size = 18.0 * s;
-    let mut title_size = 21.0 * s;
-    let pad = (10.0 * s).round();
-    let gap = (6.0 * s).round();
-    let tick_len = (6.0 * s).round().max(2.0);
+    let st = Style::new(w, h, 1200.0, 600.0)?;
+    let Style {
+        s,
+        tick_size,
+        desc_size,
+        pad,
+        gap,
+        tick_len,
+        label_h,
+        desc_h,
+    } = st;
     let bar_gap = (24.0 * s).round();
     let bar_w = (22.0 * s).round();
-    let width_of = |t: &str| measure(t, tick_size).map(|(w, _)| w as f64);
-
-    let label_h = measure("0123456789", tick_size)?.1 as f64;
-    let desc_h = measure("time (s)", desc_size)?.1 as f64;
-    let title = opts
-        .title
-        .as_deref()
-        .map(str::trim)
-        .filter(|t| !t.is_empty());
-    let title_h = match title {
-        Some(t) => {
-            // A title too long for the picture is set smaller rather than cut.
-            let room = w as f64 - 2.0 * pad;
-            let tw = measure(t, title_size)?.0 as f64;
-            if tw > room {
-                title_size = (title_size * room / tw).max(6.0);
-            }
-            measure(t, title_size)?.1 as f64 + gap
-        }
-        None => 0.0,
-    };
+    let width_of = |t: &str| st.label_w(t);
+    let title = Title::fit(opts.title.as_deref(), w, &st)?;
+    let title_h = title.as_ref().map_or(0.0, |t| t.height);
 
     // Vertical layout first: it fixes the plot height, which fixes the y ticks and so the
     // widths of their labels, which fix the horizontal layout.
@@ -381,23 +279,8 @@ fn draw_figure(
         true,
     )?;
 
-    if let Some(t) = title {
-        let (tw, _) = measure(t, title_size)?;
-        // Centred over the plot when it fits there, else over the picture.
-        let centre = if (tw as f64) < pw {
-            left + pw / 2.0
-        } else {
-            w as f64 / 2.0
-        };
-        c.text(
-            t,
-            title_size,
-            centre,
-            pad,
-            HAlign::Center,
-            VAlign::Top,
-            false,
-        )?;
+    if let Some(t) = &title {
+        t.draw(&mut c, left, pw, w, &st)?;
     }
     Ok(c)
 }

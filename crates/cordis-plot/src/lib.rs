@@ -1,9 +1,15 @@
 //! # cordis-plot: pictures of renders
 //!
-//! Spectrograms of rendered audio, as numbers ([`spectrogram`]) or as a PNG figure
-//! ([`spectrogram_png`]) with a time axis in seconds, a linear or logarithmic frequency axis in
-//! Hz, a perceptual colour map (magma: black for silence, pale yellow for the loudest partial)
-//! and a labelled dB colour bar.
+//! Three figures, each written as a PNG:
+//!
+//! - Spectrograms of rendered audio, as numbers ([`spectrogram`]) or as a figure
+//!   ([`spectrogram_png`]) with a time axis in seconds, a linear or logarithmic frequency axis in
+//!   Hz, a perceptual colour map (magma: black for silence, pale yellow for the loudest partial)
+//!   and a labelled dB colour bar.
+//! - Mode plots ([`modes_png`]): the prediction and the sound seen together, the spectrum of a
+//!   render (see [`spectrum`]) with a marker at each predicted mode, above each mode's T60.
+//! - Response plots ([`response_png`]): magnitude and phase of one or more frequency responses
+//!   over a logarithmic frequency axis (a Bode plot), with a legend.
 //!
 //! Text is drawn with DejaVu Sans embedded in the binary, so no system font or fontconfig is
 //! needed: a figure renders the same on a fresh machine with only the Rust toolchain.
@@ -18,13 +24,29 @@
 //! spectrogram_png(&tone, rate, &opts, std::path::Path::new("a4.png"))?;
 //! # Ok::<(), cordis_plot::PlotError>(())
 //! ```
+//!
+//! ```no_run
+//! use cordis_plot::{modes_png, spectrum, ModeMark, ModesPlotOptions};
+//! # let samples = vec![0.0; 48_000];
+//! let spec = spectrum(&samples, 48_000.0, 8192)?;
+//! let modes = [ModeMark { freq_hz: 440.0, t60_s: 2.5, label: Some("1".into()) }];
+//! modes_png(&spec, &modes, &ModesPlotOptions::default(), std::path::Path::new("modes.png"))?;
+//! # Ok::<(), cordis_plot::PlotError>(())
+//! ```
 #![warn(missing_docs)]
 
 mod canvas;
+mod chart;
 mod colormap;
 mod draw;
+mod figure;
+mod modes;
+mod response;
 mod stft;
 mod ticks;
+
+pub use modes::{modes_png, spectrum, ModeMark, ModesPlotOptions, Spectrum};
+pub use response::{response_png, ResponseCurve, ResponsePlotOptions};
 
 use std::fmt;
 use std::path::Path;
@@ -95,20 +117,21 @@ pub struct Spectrogram {
     pub db: Vec<Vec<f64>>,
 }
 
-/// Why a spectrogram could not be computed or drawn.
+/// Why a figure (or a spectrogram's numbers) could not be computed or drawn.
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum PlotError {
-    /// The signal has no samples.
+    /// There is nothing to draw: no samples, no spectrum points, no frequencies or series.
     Empty,
-    /// A sample is NaN or infinite.
+    /// A value is NaN or infinite.
     NonFinite {
-        /// Index of the first bad sample.
+        /// Position of the first bad value: the sample, or as each function documents.
         index: usize,
         /// Its value.
         value: f64,
     },
-    /// An option (or the sample rate) is out of range; the message says which and why.
+    /// An option (or the sample rate, or the shape of the data) is out of range; the message
+    /// says which and why.
     BadOptions(String),
     /// Drawing or writing the PNG failed.
     Draw(String),
@@ -119,15 +142,15 @@ impl fmt::Display for PlotError {
         match self {
             PlotError::Empty => write!(
                 f,
-                "cannot draw a spectrogram of an empty signal (hint: render a duration above zero)"
+                "nothing to draw: the data is empty (hint: render a duration above zero)"
             ),
             PlotError::NonFinite { index, value } => write!(
                 f,
-                "sample {index} is {value}: a spectrogram needs finite samples \
-                 (hint: the model probably blew up; run `cordis check` on it)"
+                "value {index} is {value}: a plot needs finite numbers \
+                 (hint: if it comes from a render, the model probably blew up; run `cordis check` on it)"
             ),
-            PlotError::BadOptions(msg) => write!(f, "bad spectrogram options: {msg}"),
-            PlotError::Draw(msg) => write!(f, "cannot draw the spectrogram: {msg}"),
+            PlotError::BadOptions(msg) => write!(f, "bad plot options: {msg}"),
+            PlotError::Draw(msg) => write!(f, "cannot draw the plot: {msg}"),
         }
     }
 }

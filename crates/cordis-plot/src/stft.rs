@@ -3,7 +3,7 @@
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
 
-use crate::{PlotError, Spectrogram, SpectrogramOptions, FLOOR_DB, MAX_FRAMES};
+use crate::{PlotError, Spectrogram, SpectrogramOptions, Spectrum, FLOOR_DB, MAX_FRAMES};
 
 /// Smallest and largest accepted picture sides, in pixels.
 const MIN_WIDTH: u32 = 240;
@@ -128,6 +128,62 @@ impl Plan {
     }
 }
 
+/// The periodic Hann window of `n` samples.
+fn hann(n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|j| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * j as f64 / n as f64).cos())
+        .collect()
+}
+
+/// Powers in dB relative to `peak`, never below [`FLOOR_DB`] (all of it when `peak` is 0).
+fn to_db(power: Vec<f64>, peak: f64) -> Vec<f64> {
+    let floor = 10f64.powf(FLOOR_DB / 10.0);
+    power
+        .into_iter()
+        .map(|p| {
+            if peak > 0.0 {
+                10.0 * (p / peak).max(floor).log10()
+            } else {
+                FLOOR_DB
+            }
+        })
+        .collect()
+}
+
+/// The average power spectrum of `samples` (already checked) in dB relative to its loudest
+/// bin: Hann-windowed frames of `window` samples overlapping by half, the last one aligned
+/// with the end of the signal; a signal shorter than the window is padded with zeros.
+pub(crate) fn average(samples: &[f64], rate: f64, window: usize) -> Spectrum {
+    let n = samples.len();
+    let hop = (window / 2).max(1);
+    let mut starts: Vec<usize> = (0..=n.saturating_sub(window)).step_by(hop).collect();
+    if n > window && starts.last().is_some_and(|&s| s + window < n) {
+        starts.push(n - window);
+    }
+    let fft = FftPlanner::<f64>::new().plan_fft_forward(window);
+    let mut scratch = vec![Complex::new(0.0, 0.0); fft.get_inplace_scratch_len()];
+    let mut buf = vec![Complex::new(0.0, 0.0); window];
+    let hann = hann(window);
+    let n_bins = window / 2 + 1;
+    let mut power = vec![0.0f64; n_bins];
+    for &start in &starts {
+        for (j, (b, w)) in buf.iter_mut().zip(&hann).enumerate() {
+            let x = samples.get(start + j).copied().unwrap_or(0.0);
+            *b = Complex::new(x * w, 0.0);
+        }
+        fft.process_with_scratch(&mut buf, &mut scratch);
+        for (a, z) in power.iter_mut().zip(&buf) {
+            *a += z.norm_sqr();
+        }
+    }
+    let peak = power.iter().copied().fold(0.0f64, f64::max);
+    let df = rate / window as f64;
+    Spectrum {
+        freqs_hz: (0..n_bins).map(|k| k as f64 * df).collect(),
+        db: to_db(power, peak),
+    }
+}
+
 /// The STFT of `samples` under `plan`, frames centred on `i * hop`, grouped into at most
 /// [`MAX_FRAMES`] columns, in dB relative to the loudest bin.
 pub(crate) fn analyse(samples: &[f64], rate: f64, plan: &Plan) -> Spectrogram {
@@ -141,10 +197,7 @@ pub(crate) fn analyse(samples: &[f64], rate: f64, plan: &Plan) -> Spectrogram {
     let fft = FftPlanner::<f64>::new().plan_fft_forward(window);
     let mut scratch = vec![Complex::new(0.0, 0.0); fft.get_inplace_scratch_len()];
     let mut buf = vec![Complex::new(0.0, 0.0); window];
-    // Periodic Hann window.
-    let hann: Vec<f64> = (0..window)
-        .map(|j| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * j as f64 / window as f64).cos())
-        .collect();
+    let hann = hann(window);
     let half = window / 2;
 
     let mut power = vec![vec![0.0f64; n_bins]; n_cols];
@@ -181,21 +234,7 @@ pub(crate) fn analyse(samples: &[f64], rate: f64, plan: &Plan) -> Spectrogram {
         .iter()
         .flat_map(|c| c.iter().copied())
         .fold(0.0f64, f64::max);
-    let floor = 10f64.powf(FLOOR_DB / 10.0);
-    let db = power
-        .into_iter()
-        .map(|col| {
-            col.into_iter()
-                .map(|p| {
-                    if peak > 0.0 {
-                        10.0 * (p / peak).max(floor).log10()
-                    } else {
-                        FLOOR_DB
-                    }
-                })
-                .collect()
-        })
-        .collect();
+    let db = power.into_iter().map(|col| to_db(col, peak)).collect();
     let df = rate / window as f64;
     let freqs_hz = (plan.bin_lo..=plan.bin_hi).map(|k| k as f64 * df).collect();
     Spectrogram {

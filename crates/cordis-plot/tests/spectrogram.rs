@@ -362,7 +362,7 @@ fn bad_options_are_named_with_a_reason() {
         assert!(msg.contains(needle), "{needle:?} not in {msg:?}");
         assert!(!path.exists());
         let shown = PlotError::BadOptions(msg).to_string();
-        assert!(shown.starts_with("bad spectrogram options: "), "{shown}");
+        assert!(shown.starts_with("bad plot options: "), "{shown}");
     }
 }
 
@@ -387,7 +387,7 @@ fn empty_and_non_finite_input_are_refused() {
     }
     x[123] = f64::INFINITY;
     let err = spectrogram(&x, RATE, &opts).unwrap_err();
-    assert!(err.to_string().contains("sample 123 is inf"), "{err}");
+    assert!(err.to_string().contains("value 123 is inf"), "{err}");
 }
 
 #[test]

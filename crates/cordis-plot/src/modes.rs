@@ -1,0 +1,451 @@
+//! The mode figure: the spectrum of a render with the predicted modes marked on it, above each
+//! mode's decay time.
+
+use std::path::Path;
+
+use crate::canvas::{measure, Canvas, HAlign, VAlign};
+use crate::chart::{
+    arrow_head, check_size, column, decimate, dot_radius, line_width, marker_width, stem_width,
+    Chart, Entry, PanelDef, Scale, Swatch, YAxis, PALETTE,
+};
+use crate::{figure, stft, PlotError};
+
+/// The colour of the spectrum line and of the predicted modes.
+const SPECTRUM: [u8; 3] = PALETTE[0];
+const MODE: [u8; 3] = PALETTE[1];
+
+/// Largest window accepted by [`spectrum`], in samples.
+const MAX_WINDOW: usize = 1 << 24;
+
+/// A magnitude spectrum: a level in dB at each of a list of increasing frequencies, as
+/// [`spectrum`] computes it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Spectrum {
+    /// Frequencies in Hz, increasing.
+    pub freqs_hz: Vec<f64>,
+    /// The level at each frequency, in dB (any reference; [`spectrum`] uses the loudest bin).
+    pub db: Vec<f64>,
+}
+
+/// A predicted mode, marked on the spectrum at its frequency.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModeMark {
+    /// Frequency in Hz (0 or more).
+    pub freq_hz: f64,
+    /// Time for the mode to decay by 60 dB, in seconds; `f64::INFINITY` for an undamped mode.
+    pub t60_s: f64,
+    /// A short name written above the marker (such as `"1"` or `"(2,1)"`), when there is room.
+    pub label: Option<String>,
+}
+
+/// How to draw [`modes_png`]. Start from [`Default`] and change what you need.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModesPlotOptions {
+    /// Lowest frequency shown, in Hz. Default: the spectrum's first frequency on a linear axis;
+    /// on a logarithmic one 20 Hz, or lower to show a lower mode or when the range is narrow.
+    pub min_freq: Option<f64>,
+    /// Highest frequency shown, in Hz. Default: the spectrum's last frequency.
+    pub max_freq: Option<f64>,
+    /// Logarithmic frequency axis (then `min_freq` must be above 0 Hz).
+    pub log_freq: bool,
+    /// Levels drawn below the loudest point shown, in dB; quieter ones sit on the bottom edge.
+    /// Default 90 dB.
+    pub db_range: f64,
+    /// Width of the PNG in pixels, 320 to 16384. Default 1200.
+    pub width: u32,
+    /// Height of the PNG in pixels, 240 to 16384. Default 700.
+    pub height: u32,
+    /// Title drawn above the figure.
+    pub title: Option<String>,
+}
+
+impl Default for ModesPlotOptions {
+    fn default() -> Self {
+        ModesPlotOptions {
+            min_freq: None,
+            max_freq: None,
+            log_freq: false,
+            db_range: 90.0,
+            width: 1200,
+            height: 700,
+            title: None,
+        }
+    }
+}
+
+fn bad(msg: String) -> PlotError {
+    PlotError::BadOptions(msg)
+}
+
+/// Computes the average magnitude spectrum of `samples` taken at `rate` Hz, in dB relative to
+/// its loudest bin (which reads 0 dB; no bin reads below [`crate::FLOOR_DB`]): the power of
+/// Hann-windowed frames of `window` samples overlapping by half is averaged (Welch's method),
+/// and a signal shorter than the window is padded with zeros. The frequencies are the FFT bins
+/// `k * rate / window` from 0 Hz to the Nyquist frequency.
+///
+/// # Errors
+/// [`PlotError::Empty`] for no samples, [`PlotError::NonFinite`] for a NaN or infinite sample
+/// (`index` is its position), [`PlotError::BadOptions`] for a rate that is not a positive
+/// number or a window outside 16 to 2^24 samples.
+pub fn spectrum(samples: &[f64], rate: f64, window: usize) -> Result<Spectrum, PlotError> {
+    if samples.is_empty() {
+        return Err(PlotError::Empty);
+    }
+    if let Some((index, &value)) = samples.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+        return Err(PlotError::NonFinite { index, value });
+    }
+    if !(rate.is_finite() && rate > 0.0) {
+        return Err(bad(format!(
+            "the sample rate is {rate} Hz; it must be a positive number such as 48000"
+        )));
+    }
+    if !(16..=MAX_WINDOW).contains(&window) {
+        return Err(bad(format!(
+            "window is {window} samples; it must be between 16 and {MAX_WINDOW} \
+             (hint: a longer window resolves closer modes; 8192 or more suits a mode plot)"
+        )));
+    }
+    Ok(stft::average(samples, rate, window))
+}
+
+/// The checked inputs of a mode figure.
+struct Plan {
+    min: f64,
+    max: f64,
+    /// Indices of the spectrum points drawn (with one beyond each end of the range).
+    first: usize,
+    last: usize,
+    /// The top of the level axis: the loudest point shown.
+    top: f64,
+}
+
+fn plan(
+    spectrum: &Spectrum,
+    modes: &[ModeMark],
+    opts: &ModesPlotOptions,
+) -> Result<Plan, PlotError> {
+    check_size(opts.width, opts.height)?;
+    if !(opts.db_range.is_finite() && opts.db_range > 0.0) {
+        return Err(bad(format!(
+            "db_range is {} dB; it must be a positive number such as 90",
+            opts.db_range
+        )));
+    }
+    let Spectrum { freqs_hz: f, db } = spectrum;
+    if f.is_empty() && db.is_empty() {
+        return Err(PlotError::Empty);
+    }
+    if f.len() != db.len() {
+        return Err(bad(format!(
+            "the spectrum has {} frequencies but {} levels; it needs one level per frequency",
+            f.len(),
+            db.len()
+        )));
+    }
+    for (index, (&fi, &di)) in f.iter().zip(db).enumerate() {
+        for value in [fi, di] {
+            if !value.is_finite() {
+                return Err(PlotError::NonFinite { index, value });
+            }
+        }
+    }
+    if let Some(i) = f.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(bad(format!(
+            "the spectrum's frequencies must increase, but point {} is at {} Hz and point {} \
+             at {} Hz",
+            i,
+            f[i],
+            i + 1,
+            f[i + 1]
+        )));
+    }
+    for (index, m) in modes.iter().enumerate() {
+        if !m.freq_hz.is_finite() {
+            return Err(PlotError::NonFinite {
+                index,
+                value: m.freq_hz,
+            });
+        }
+        if m.t60_s.is_nan() || m.t60_s == f64::NEG_INFINITY {
+            return Err(PlotError::NonFinite {
+                index,
+                value: m.t60_s,
+            });
+        }
+        if m.freq_hz < 0.0 {
+            return Err(bad(format!(
+                "mode {index} is at {} Hz; a frequency must be 0 Hz or more",
+                m.freq_hz
+            )));
+        }
+        if m.t60_s <= 0.0 {
+            return Err(bad(format!(
+                "mode {index} at {} Hz has a T60 of {} s; it must be above 0 s \
+                 (hint: f64::INFINITY for an undamped mode)",
+                m.freq_hz, m.t60_s
+            )));
+        }
+    }
+
+    let (f_first, f_last) = (f[0], f[f.len() - 1]);
+    let max = opts.max_freq.unwrap_or(f_last);
+    if !(max.is_finite() && max > 0.0) {
+        return Err(bad(format!(
+            "max_freq is {max} Hz; it must be above 0 Hz (hint: leave it unset to show the \
+             whole spectrum)"
+        )));
+    }
+    let min = match opts.min_freq {
+        Some(m) => m,
+        None if opts.log_freq => {
+            let lowest_mode = modes
+                .iter()
+                .map(|m| m.freq_hz)
+                .filter(|&m| m > 0.0)
+                .fold(f64::INFINITY, f64::min);
+            20f64.min(max / 10.0).min(lowest_mode / 1.25)
+        }
+        None => f_first.min(max / 2.0),
+    };
+    if !(min.is_finite() && min >= 0.0) {
+        return Err(bad(format!(
+            "min_freq is {min} Hz; it must be 0 Hz or more"
+        )));
+    }
+    if opts.log_freq && min <= 0.0 {
+        return Err(bad(format!(
+            "min_freq is {min} Hz on a logarithmic axis, which cannot reach 0 Hz \
+             (hint: 20 Hz, or leave it unset)"
+        )));
+    }
+    if min >= max {
+        return Err(bad(format!(
+            "min_freq {min} Hz is not below max_freq {max} Hz"
+        )));
+    }
+    let inside: Vec<usize> = (0..f.len())
+        .filter(|&i| f[i] >= min && f[i] <= max)
+        .collect();
+    let (Some(&a), Some(&b)) = (inside.first(), inside.last()) else {
+        return Err(bad(format!(
+            "no point of the spectrum ({f_first} to {f_last} Hz) lies between min_freq {min} Hz \
+             and max_freq {max} Hz"
+        )));
+    };
+    let top = inside
+        .iter()
+        .map(|&i| db[i])
+        .fold(f64::NEG_INFINITY, f64::max);
+    // One point beyond each end, so that the line runs to the edges (a log axis cannot show
+    // 0 Hz).
+    let first = if a > 0 && (!opts.log_freq || f[a - 1] > 0.0) {
+        a - 1
+    } else {
+        a
+    };
+    let last = (b + 1).min(f.len() - 1);
+    Ok(Plan {
+        min,
+        max,
+        first,
+        last,
+        top,
+    })
+}
+
+/// Draws "the prediction and the sound seen together" as a PNG of `opts.width` x
+/// `opts.height` pixels at `path`: above, `spectrum` as a line (level in dB over frequency in Hz,
+/// on a linear or logarithmic axis) with a vertical marker at each of `modes`; below, on the
+/// same frequency axis, each mode's T60 in seconds as a stem (on a logarithmic axis when the
+/// T60s shown span more than a decade). Undamped modes (infinite T60) reach a band at the top
+/// of the lower panel, labelled ∞, with an arrow head. Modes outside the frequency range are
+/// left out; labels of modes are written above the markers where they do not overlap.
+///
+/// The file is written beside `path` under a hidden temporary name and renamed only once
+/// complete, so a failure never leaves a partial picture.
+///
+/// # Errors
+/// [`PlotError::Empty`] for a spectrum without points; [`PlotError::NonFinite`] for a NaN or
+/// infinite frequency or level of the spectrum (`index` is the point), or else a NaN
+/// frequency or T60 of a mode (`index` is the mode); [`PlotError::BadOptions`] for an option
+/// out of range, frequencies that do not increase, a negative mode frequency or T60, or a
+/// range without any point of the spectrum; [`PlotError::Draw`] when the picture cannot be
+/// drawn or written.
+pub fn modes_png(
+    spectrum: &Spectrum,
+    modes: &[ModeMark],
+    opts: &ModesPlotOptions,
+    path: &Path,
+) -> Result<(), PlotError> {
+    let plan = plan(spectrum, modes, opts)?;
+    figure::save(path, || draw(spectrum, modes, opts, &plan))
+}
+
+fn draw(
+    spectrum: &Spectrum,
+    modes: &[ModeMark],
+    opts: &ModesPlotOptions,
+    plan: &Plan,
+) -> Result<Canvas, PlotError> {
+    let x = Scale {
+        lo: plan.min,
+        hi: plan.max,
+        log: opts.log_freq,
+    };
+    let mut shown: Vec<&ModeMark> = modes
+        .iter()
+        .filter(|m| m.freq_hz >= plan.min && m.freq_hz <= plan.max)
+        .collect();
+    shown.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+    let finite: Vec<f64> = shown
+        .iter()
+        .map(|m| m.t60_s)
+        .filter(|t| t.is_finite())
+        .collect();
+    let undamped = shown.iter().any(|m| m.t60_s.is_infinite());
+    let t_lo = finite.iter().copied().fold(f64::INFINITY, f64::min);
+    let t_hi = finite.iter().copied().fold(0.0f64, f64::max);
+    let t_axis = if finite.is_empty() {
+        YAxis::Blank
+    } else if t_hi > 10.0 * t_lo {
+        YAxis::Log {
+            lo: t_lo / 1.5,
+            hi: t_hi * 1.5,
+        }
+    } else {
+        YAxis::LinearNice {
+            lo: 0.0,
+            hi: t_hi * 1.08,
+        }
+    };
+    let range = opts.db_range;
+    let db_lo = plan.top - range;
+    let labelled = shown
+        .iter()
+        .any(|m| m.label.as_deref().is_some_and(|l| !l.trim().is_empty()));
+    let chart = Chart::layout(
+        opts.width,
+        opts.height,
+        opts.title.as_deref(),
+        x,
+        "frequency (Hz)",
+        &[
+            PanelDef {
+                weight: 0.62,
+                y: YAxis::Linear {
+                    lo: db_lo,
+                    hi: plan.top + 0.05 * range,
+                },
+                label: "level (dB)",
+                inf_band: false,
+            },
+            PanelDef {
+                weight: 0.38,
+                y: t_axis,
+                label: "T60 (s)",
+                inf_band: undamped,
+            },
+        ],
+        labelled,
+    )?;
+    let mut c = chart.canvas();
+    chart.draw_axes(&mut c)?;
+    let st = chart.st;
+    let (top, bottom) = (&chart.panels[0], &chart.panels[1]);
+
+    // Markers first, so that the spectrum stays readable over them.
+    let mw = marker_width(&st);
+    let cols: Vec<i64> = shown
+        .iter()
+        .map(|m| column(chart.x_px(m.freq_hz), &top.rect))
+        .collect();
+    for &col in &cols {
+        let x0 = (col - (mw - 1) / 2).clamp(top.rect.x0, top.rect.x1 - mw);
+        c.fill_rect(x0, top.rect.y0, x0 + mw, top.rect.y1, MODE);
+    }
+    let points: Vec<(f64, f64)> = (plan.first..=plan.last)
+        .map(|i| {
+            (
+                chart.x_px(spectrum.freqs_hz[i]),
+                top.y_px(spectrum.db[i].max(db_lo)),
+            )
+        })
+        .collect();
+    let mut layer = top.rect.layer();
+    layer.polyline(&decimate(&points), line_width(&st));
+    layer.paint(&mut c, SPECTRUM);
+
+    // Decay times.
+    let mut stems = bottom.rect.layer();
+    let (sw, r) = (stem_width(&st), dot_radius(&st));
+    let base = bottom.data.y1 as f64;
+    for (m, &col) in shown.iter().zip(&cols) {
+        let xc = col as f64 + 0.5;
+        if m.t60_s.is_finite() {
+            let y = bottom
+                .y_px(m.t60_s)
+                .clamp(bottom.data.y0 as f64, bottom.data.y1 as f64);
+            stems.segment((xc, base), (xc, y), sw);
+            stems.disc((xc, y), r);
+        } else {
+            let tip = bottom.rect.y0 as f64 + (2.0 * st.s).max(1.0);
+            stems.segment((xc, base), (xc, tip + 4.0 * st.s), sw);
+            arrow_head(&mut stems, xc, tip, &st);
+        }
+    }
+    stems.paint(&mut c, MODE);
+    if shown.is_empty() {
+        let r = bottom.rect;
+        c.text(
+            "no predicted mode in this frequency range",
+            st.tick_size,
+            (r.x0 + r.x1) as f64 / 2.0,
+            (r.y0 + r.y1) as f64 / 2.0,
+            HAlign::Center,
+            VAlign::Center,
+            false,
+        )?;
+    }
+
+    // Mode labels above the plot, skipping any that would overlap the one before.
+    if let Some(y) = chart.strip_y {
+        let mut free_from = st.pad;
+        let right_edge = c.width as f64 - st.pad;
+        for (m, &col) in shown.iter().zip(&cols) {
+            let Some(label) = m.label.as_deref().map(str::trim).filter(|l| !l.is_empty()) else {
+                continue;
+            };
+            let (lw, _) = measure(label, st.tick_size)?;
+            let lw = lw as f64;
+            let x = (col as f64 + 0.5 - lw / 2.0).max(st.pad);
+            if x < free_from || x + lw > right_edge {
+                continue;
+            }
+            c.text(label, st.tick_size, x, y, HAlign::Left, VAlign::Top, false)?;
+            free_from = x + lw + st.gap;
+        }
+    }
+
+    let mut entries = vec![Entry {
+        label: "spectrum".into(),
+        colour: SPECTRUM,
+        swatch: Swatch::Line,
+    }];
+    if !shown.is_empty() {
+        entries.push(Entry {
+            label: "predicted mode".into(),
+            colour: MODE,
+            swatch: Swatch::Marker,
+        });
+    }
+    chart.legend(&mut c, 0, &entries)?;
+    if undamped {
+        let entries = [Entry {
+            label: "undamped (T60 = \u{221e})".into(),
+            colour: MODE,
+            swatch: Swatch::Arrow,
+        }];
+        chart.legend(&mut c, 1, &entries)?;
+    }
+    Ok(c)
+}
