@@ -61,6 +61,31 @@ fn num(v: f64) -> serde_json::Value {
     }
 }
 
+/// Modes as a command shows them, from the dense or the sparse path.
+struct Found {
+    modes: Vec<cordis_analysis::Mode>,
+    method: String,
+    max_radius: f64,
+    partial: bool,
+}
+
+fn sparse_method_text(m: &cordis_analysis::SparseMethod, count: usize, residual: f64) -> String {
+    let how = match m {
+        cordis_analysis::SparseMethod::Undamped => "undamped".to_string(),
+        cordis_analysis::SparseMethod::Rayleigh { alpha, beta } => {
+            format!("damped, R = {alpha:.3e} M + {beta:.3e} K: each mode's poles in closed form")
+        }
+        cordis_analysis::SparseMethod::Refined { coupling, .. } => {
+            format!(
+                "damped, each pole refined on the full quadratic problem (coupling {coupling:.2e})"
+            )
+        }
+    };
+    format!(
+        "the {count} lowest modes by shift-invert Lanczos (largest residual {residual:.1e}); {how}"
+    )
+}
+
 fn method_text(m: &Method) -> String {
     match m {
         Method::Undamped => "undamped: K phi = lambda M phi, f = (Fs/pi) asin(sqrt(lambda)/2)".into(),
@@ -83,6 +108,7 @@ pub fn modes(
     json_out: bool,
     plot: Option<&PathBuf>,
     spec: &crate::SpecArgs,
+    count: Option<usize>,
 ) -> u8 {
     let model = match load(args) {
         Ok(m) => m,
@@ -92,9 +118,28 @@ pub fn modes(
         Ok(s) => s,
         Err(c) => return c,
     };
-    let ma = match analyse(&sys) {
-        Ok(m) => m,
-        Err(c) => return c,
+    let ma = match count {
+        None => match analyse(&sys) {
+            Ok(m) => Found {
+                method: method_text(&m.method),
+                max_radius: m.max_radius,
+                modes: m.modes,
+                partial: false,
+            },
+            Err(c) => return c,
+        },
+        Some(k) => match cordis_analysis::lowest_modes(&sys, k) {
+            Ok(lm) => Found {
+                method: sparse_method_text(&lm.method, k, lm.max_residual),
+                max_radius: lm.modes.iter().fold(0.0f64, |a, m| a.max(m.radius)),
+                modes: lm.modes,
+                partial: k < sys.len(),
+            },
+            Err(e) => {
+                eprintln!("cordis: {e}");
+                return exit::INVALID;
+            }
+        },
     };
     let outs: Vec<&str> = sys.outputs.iter().map(|(n, _)| n.as_str()).collect();
     let mut text = String::new();
@@ -119,7 +164,7 @@ pub fn modes(
         let doc = json!({
             "model": model.path.display().to_string(),
             "rate_hz": model.rate,
-            "method": method_text(&ma.method),
+            "method": ma.method,
             "dofs": sys.names,
             "outputs": outs,
             "max_pole_radius": num(ma.max_radius),
@@ -142,7 +187,7 @@ pub fn modes(
             sys.len(),
             model.rate
         );
-        let _ = writeln!(text, "method: {}", method_text(&ma.method));
+        let _ = writeln!(text, "method: {}", ma.method);
         for n in &sys.notes {
             let _ = writeln!(text, "linearised: {n}");
         }
@@ -158,8 +203,13 @@ pub fn modes(
         }
         let _ = writeln!(
             text,
-            "stability: largest pole radius {:.12} ({})",
+            "stability: largest pole radius {:.12}{} ({})",
             ma.max_radius,
+            if ma.partial {
+                " of the modes listed"
+            } else {
+                ""
+            },
             if ma.max_radius <= 1.0 {
                 "stable"
             } else {
@@ -209,12 +259,7 @@ pub fn modes(
 }
 
 /// The predicted modes over the spectrum of a short render (output channel 0).
-fn modes_plot(
-    model: &Model,
-    ma: &ModalAnalysis,
-    spec: &crate::SpecArgs,
-    path: &Path,
-) -> Result<()> {
+fn modes_plot(model: &Model, ma: &Found, spec: &crate::SpecArgs, path: &Path) -> Result<()> {
     anyhow::ensure!(
         !model.network.outputs.is_empty(),
         "the plot shows the spectrum of output 0, and the model has no outputs"
@@ -374,6 +419,9 @@ fn readme_text(model: &Model, sys: &LinearSystem) -> String {
     s
 }
 
+/// Above this many mobile modules, responses are solved sparse, frequency by frequency.
+const SPARSE_RESPONSE_FROM: usize = 1500;
+
 /// Options of `cordis response`.
 pub struct ResponseArgs<'a> {
     /// Where the force is applied.
@@ -428,22 +476,42 @@ pub fn response(args: &ModelArgs, r: &ResponseArgs<'_>) -> u8 {
         eprintln!("cordis: the frequency grid must satisfy 0 < --from < --to < Nyquist ({} Hz) with --points >= 2", fs / 2.0);
         return exit::USAGE;
     }
-    let ma = match analyse(&sys) {
-        Ok(m) => m,
-        Err(c) => return c,
-    };
     let freqs: Vec<f64> = (0..r.points)
         .map(|i| r.from_hz * (to / r.from_hz).powf(i as f64 / (r.points - 1) as f64))
         .collect();
+    // Small models: from the modal decomposition. Large ones: a sparse solve per frequency.
+    let (hab, haa) = if sys.len() <= SPARSE_RESPONSE_FROM {
+        let ma = match analyse(&sys) {
+            Ok(m) => m,
+            Err(c) => return c,
+        };
+        let at = |x: usize| {
+            freqs
+                .iter()
+                .map(|&f| ma.receptance(a, x, f, fs))
+                .collect::<Vec<_>>()
+        };
+        (at(b), at(a))
+    } else {
+        match (
+            cordis_analysis::receptance_sparse(&sys, a, b, &freqs),
+            cordis_analysis::receptance_sparse(&sys, a, a, &freqs),
+        ) {
+            (Ok(x), Ok(y)) => (x, y),
+            (Err(e), _) | (_, Err(e)) => {
+                eprintln!("cordis: {e}");
+                return exit::INVALID;
+            }
+        }
+    };
     let mut csv = String::from("freq_hz,receptance_mag,receptance_phase_rad,mobility_mag,mobility_phase_rad,transfer_mag,transfer_phase_rad,driving_point_mobility_mag,driving_point_mobility_phase_rad\n");
     let mut series = vec![
         ("receptance X_B/F_A".to_string(), Vec::new()),
         ("mobility V_B/F_A".to_string(), Vec::new()),
         ("transfer X_B/X_A".to_string(), Vec::new()),
     ];
-    for &f in &freqs {
-        let h = ma.receptance(a, b, f, fs);
-        let haa = ma.receptance(a, a, f, fs);
+    for (i, &f) in freqs.iter().enumerate() {
+        let (h, haa) = (hab[i], haa[i]);
         let w = std::f64::consts::TAU * f / fs;
         // velocity per sample: (1 - z^-1) X
         let d = cordis_analysis::faer::c64::new(1.0 - w.cos(), w.sin());

@@ -79,6 +79,7 @@ Exit codes: 0 ok, 1 the WAV file cannot be read, 2 bad command line, 4 the PNG c
   cordis modes examples/plucked_string.cordis
   cordis modes model.cordis --json > modes.json
   cordis modes model.cordis --plot modes.png --max-freq 4000
+  cordis modes big_membrane.cordis --count 50
 
 The model is linearised at its initial positions (a BUT counts if it is in contact there, an LNL
 with the slopes of its curves); the report says what was linearised.
@@ -154,6 +155,9 @@ struct ModesArgs {
     /// Draw the modes over the spectrum of a 2 s render of output 0.
     #[arg(long, value_name = "OUT.png")]
     plot: Option<PathBuf>,
+    /// Only the N lowest modes, by a sparse method (for large models).
+    #[arg(long, value_name = "N")]
+    count: Option<usize>,
     #[command(flatten)]
     spec: SpecArgs,
 }
@@ -359,7 +363,7 @@ fn main() -> ExitCode {
         Command::Render(a) => render::render(&a),
         Command::Check(a) => render::check(&a),
         Command::Spectrogram(a) => render::spectrogram(&a.input, &a.output, a.channel, &a.spec),
-        Command::Modes(a) => analysis::modes(&a.model, a.json, a.plot.as_ref(), &a.spec),
+        Command::Modes(a) => analysis::modes(&a.model, a.json, a.plot.as_ref(), &a.spec, a.count),
         Command::Matrices(a) => analysis::matrices(&a.model, a.output.as_ref(), a.csv.as_ref()),
         Command::Graph(a) => analysis::graph(&a.model, a.output.as_ref()),
         Command::Export(ExportCmd::Spice(a)) => {
