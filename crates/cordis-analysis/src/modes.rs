@@ -100,7 +100,7 @@ enum Decomposition {
 const LN_1000: f64 = 6.907_755_278_982_137;
 
 /// Poles of `z² - a z + b = 0`, as a mode (without amplitudes and shape).
-fn mode_from_quadratic(a: f64, b: f64, fs: f64) -> (ModeKind, f64, f64, f64) {
+pub(crate) fn mode_from_quadratic(a: f64, b: f64, fs: f64) -> (ModeKind, f64, f64, f64) {
     let disc = a * a - 4.0 * b;
     if disc < 0.0 {
         let r = b.sqrt();
@@ -127,7 +127,7 @@ fn tau(r: f64, fs: f64) -> f64 {
     }
 }
 
-fn finish(kind: ModeKind, freq: f64, tau_s: f64, radius: f64, lambda: f64) -> Mode {
+pub(crate) fn finish(kind: ModeKind, freq: f64, tau_s: f64, radius: f64, lambda: f64) -> Mode {
     Mode {
         kind,
         freq_hz: freq,

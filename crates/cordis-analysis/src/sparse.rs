@@ -32,7 +32,7 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{c64, Accum, Conj, Mat, MatRef, Par, Side};
 
 use crate::linear::LinearSystem;
-use crate::modes::{Mode, ModeKind};
+use crate::modes::{finish, mode_from_quadratic, Mode, ModeKind};
 use crate::AnalysisError;
 
 /// How [`lowest_modes`] found the poles.
@@ -80,7 +80,6 @@ pub struct LowestModes {
     pub solves: usize,
 }
 
-const LN_1000: f64 = 6.907_755_278_982_137;
 /// Block size of the Lanczos method: eigenvalues of multiplicity up to this are found.
 const BLOCK: usize = 3;
 const MAX_RESTARTS: usize = 500;
@@ -398,52 +397,6 @@ fn krylov_schur(
     Err(AnalysisError::NoConvergence(format!(
         "shift-invert Lanczos: the {want} lowest modes did not converge in {MAX_RESTARTS} restarts"
     )))
-}
-
-/// Poles of `z² - a z + b = 0`, as `(kind, freq, tau, radius)` (as the dense method).
-fn mode_from_quadratic(a: f64, b: f64, fs: f64) -> (ModeKind, f64, f64, f64) {
-    let disc = a * a - 4.0 * b;
-    if disc < 0.0 {
-        let r = b.sqrt();
-        let theta = (a / (2.0 * r)).clamp(-1.0, 1.0).acos();
-        (
-            ModeKind::Oscillating,
-            theta * fs / std::f64::consts::TAU,
-            tau(r, fs),
-            r,
-        )
-    } else {
-        let s = disc.sqrt();
-        let (z1, z2) = ((a + s) / 2.0, (a - s) / 2.0);
-        let r = z1.abs().max(z2.abs());
-        (ModeKind::NonOscillating, 0.0, tau(r, fs), r)
-    }
-}
-
-fn tau(r: f64, fs: f64) -> f64 {
-    if r == 1.0 {
-        f64::INFINITY
-    } else {
-        -1.0 / (fs * r.ln())
-    }
-}
-
-fn finish(kind: ModeKind, freq: f64, tau_s: f64, radius: f64, lambda: f64) -> Mode {
-    Mode {
-        kind,
-        freq_hz: freq,
-        tau_s,
-        t60_s: tau_s * LN_1000,
-        q: if tau_s.is_infinite() {
-            f64::INFINITY
-        } else {
-            std::f64::consts::PI * freq * tau_s
-        },
-        radius,
-        lambda,
-        amplitudes: Vec::new(),
-        shape: Vec::new(),
-    }
 }
 
 /// `R = α M + β K` entry by entry (to 1e-12 of the largest `|R|`), or `None`.

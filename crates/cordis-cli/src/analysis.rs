@@ -385,14 +385,10 @@ pub fn matrices(args: &ModelArgs, out: Option<&PathBuf>, csv_dir: Option<&PathBu
             },
             "linearised": sys.notes,
         });
-        let text = serde_json::to_string(&doc).unwrap_or_default() + "\n";
-        match out {
-            Some(p) => write_file(p, &text),
-            None => {
-                let _ = std::io::stdout().write_all(text.as_bytes());
-                Ok(())
-            }
-        }
+        return write_or_print(
+            out,
+            &(serde_json::to_string(&doc).unwrap_or_default() + "\n"),
+        );
     };
     match result {
         Ok(()) => exit::OK,
@@ -532,16 +528,9 @@ pub fn response(args: &ModelArgs, r: &ResponseArgs<'_>) -> u8 {
         series[1].1.push((mob.norm(), mob.arg()));
         series[2].1.push((tr.norm(), tr.arg()));
     }
-    let result = match r.output {
-        Some(p) => write_file(p, &csv),
-        None => {
-            let _ = std::io::stdout().write_all(csv.as_bytes());
-            Ok(())
-        }
-    };
-    if let Err(e) = result {
-        eprintln!("cordis: {e:#}");
-        return exit::OUTPUT;
+    let written = write_or_print(r.output, &csv);
+    if written != exit::OK {
+        return written;
     }
     if let Some(path) = r.plot {
         let curve = cordis_plot::ResponseCurve {
