@@ -472,6 +472,9 @@ pub fn response(args: &ModelArgs, r: &ResponseArgs<'_>) -> u8 {
         eprintln!("cordis: the frequency grid must satisfy 0 < --from < --to < Nyquist ({} Hz) with --points >= 2", fs / 2.0);
         return exit::USAGE;
     }
+    for n in &sys.notes {
+        eprintln!("cordis: linearised: {n}");
+    }
     let freqs: Vec<f64> = (0..r.points)
         .map(|i| r.from_hz * (to / r.from_hz).powf(i as f64 / (r.points - 1) as f64))
         .collect();
