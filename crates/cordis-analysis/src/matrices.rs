@@ -39,14 +39,11 @@ impl LinearSystem {
         let (k, r) = (self.k.dense(), self.r.dense());
         let a0 = Mat::<f64>::from_fn(n, n, |i, j| k[(i, j)] + r[(i, j)] - 2.0 * m[(i, j)]);
         let am1 = Mat::<f64>::from_fn(n, n, |i, j| m[(i, j)] - r[(i, j)]);
-        let ad = Mat::<f64>::from_fn(2 * n, 2 * n, |i, j| match (i < n, j < n) {
-            (true, true) => {
-                (if i == j { 2.0 } else { 0.0 }) - (k[(i, j)] + r[(i, j)]) / self.mass[i]
-            }
-            (true, false) => (if i == j - n { -1.0 } else { 0.0 }) + r[(i, j - n)] / self.mass[i],
-            (false, true) => f64::from(u8::from(i - n == j)),
-            (false, false) => 0.0,
-        });
+        let ad = state_matrix(
+            n,
+            |i, j| (k[(i, j)] + r[(i, j)]) / self.mass[i],
+            |i, j| r[(i, j)] / self.mass[i],
+        );
         let bd = Mat::<f64>::from_fn(
             2 * n,
             n,
@@ -78,6 +75,22 @@ impl LinearSystem {
             dd,
         }
     }
+}
+
+/// The state matrix `[[2I - S, -I + D], [I, 0]]` over `[x(n); x(n-1)]`, where `S(i, j)` is the
+/// stiffness-plus-damping term and `D(i, j)` the damping term of row `i` (each already divided by the
+/// inertia, or in scaled coordinates).
+pub(crate) fn state_matrix(
+    n: usize,
+    s: impl Fn(usize, usize) -> f64,
+    d: impl Fn(usize, usize) -> f64,
+) -> Mat<f64> {
+    Mat::<f64>::from_fn(2 * n, 2 * n, |i, j| match (i < n, j < n) {
+        (true, true) => (if i == j { 2.0 } else { 0.0 }) - s(i, j),
+        (true, false) => (if i == j - n { -1.0 } else { 0.0 }) + d(i, j - n),
+        (false, true) => f64::from(u8::from(i - n == j)),
+        (false, false) => 0.0,
+    })
 }
 
 /// The rows of a matrix, as nested vectors.

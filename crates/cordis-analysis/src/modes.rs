@@ -220,6 +220,7 @@ impl ModalAnalysis {
             };
             let mut m = finish(kind, f, t, r, l);
             m.shape = (0..n).map(|i| phi[(i, j)]).collect();
+            m.amplitudes = modal_amplitudes(sys, &m, l);
             modes.push(m);
         }
         let mut ma = ModalAnalysis {
@@ -229,7 +230,6 @@ impl ModalAnalysis {
             lambda_max,
             decomposition: Decomposition::Modal { phi, lambda, c },
         };
-        ma.modal_amplitudes(sys);
         ma.sort();
         Ok(ma)
     }
@@ -262,62 +262,6 @@ impl ModalAnalysis {
         });
     }
 
-    /// Amplitudes of decoupled modes at the outputs, from the initial state and impulses.
-    fn modal_amplitudes(&mut self, sys: &LinearSystem) {
-        let Decomposition::Modal { phi, lambda, c } = &self.decomposition else {
-            return;
-        };
-        let n = sys.len();
-        let fs = sys.rate;
-        for (j, mode) in self.modes.iter_mut().enumerate() {
-            let col = |i: usize| phi[(i, j)];
-            // modal coordinates of the deviation from equilibrium: q = φᵀ M x - φᵀ b / λ
-            let pb: f64 = (0..n).map(|i| col(i) * sys.b[i]).sum();
-            let eq = if mode.kind == ModeKind::Rigid {
-                0.0
-            } else {
-                pb / lambda[j]
-            };
-            let q0: f64 = (0..n)
-                .map(|i| col(i) * sys.mass[i] * sys.x0[i])
-                .sum::<f64>()
-                - eq;
-            let qm1: f64 = (0..n)
-                .map(|i| col(i) * sys.mass[i] * sys.xm1[i])
-                .sum::<f64>()
-                - eq;
-            let envelope = match mode.kind {
-                ModeKind::Oscillating => {
-                    // q(n) = A z^n + conj; z = r e^{iθ}
-                    let theta = mode.freq_hz * std::f64::consts::TAU / fs;
-                    let z = c64::new(mode.radius * theta.cos(), mode.radius * theta.sin());
-                    let w = c64::new(1.0, 0.0) / z;
-                    let u = q0 / 2.0;
-                    let v = (u * w.re - qm1 / 2.0) / w.im;
-                    let mut a = c64::new(u, v);
-                    for &(at, d, f) in &sys.impulses {
-                        let g = col(d) * f;
-                        // 2 Re(A z^{at+1}) = g, 2 Re(A z^at) = 0
-                        let za = z.powf(at as f64);
-                        a += c64::new(0.0, -g / (2.0 * z.im)) / za;
-                    }
-                    2.0 * a.norm()
-                }
-                _ => {
-                    let _ = c[j];
-                    q0.abs().max(qm1.abs())
-                }
-            };
-            mode.amplitudes = sys
-                .outputs
-                .iter()
-                .map(|(_, terms)| {
-                    envelope * terms.iter().map(|&(g, d)| g * col(d)).sum::<f64>().abs()
-                })
-                .collect();
-        }
-    }
-
     /// The receptance `X_b / F_a` (position at dof `b` per unit force at dof `a`) at `freq_hz`,
     /// exact for the discrete scheme: `(z M + K + R - 2M + z⁻¹ (M - R))⁻¹` at `z = e^{iω}`.
     pub fn receptance(&self, a: usize, b: usize, freq_hz: f64, fs: f64) -> c64 {
@@ -343,6 +287,50 @@ impl ModalAnalysis {
             }
         }
     }
+}
+
+/// Amplitudes at the outputs of a decoupled mode (its `shape` M-orthonormal, `lambda` its
+/// undamped eigenvalue), for the initial state and the impulses: the envelope at step 0.
+/// In modal coordinates `q = φᵀ M x - φᵀ b / λ`, and `q(n) = A z^n + conj`.
+pub(crate) fn modal_amplitudes(sys: &LinearSystem, mode: &Mode, lambda: f64) -> Vec<f64> {
+    let col = &mode.shape;
+    let fs = sys.rate;
+    let pb: f64 = col.iter().zip(&sys.b).map(|(p, b)| p * b).sum();
+    let eq = if mode.kind == ModeKind::Rigid {
+        0.0
+    } else {
+        pb / lambda
+    };
+    let proj = |x: &[f64]| -> f64 {
+        col.iter()
+            .zip(&sys.mass)
+            .zip(x)
+            .map(|((p, m), x)| p * m * x)
+            .sum::<f64>()
+            - eq
+    };
+    let (q0, qm1) = (proj(&sys.x0), proj(&sys.xm1));
+    let envelope = match mode.kind {
+        ModeKind::Oscillating => {
+            let theta = mode.freq_hz * std::f64::consts::TAU / fs;
+            let z = c64::new(mode.radius * theta.cos(), mode.radius * theta.sin());
+            let w = c64::new(1.0, 0.0) / z;
+            let u = q0 / 2.0;
+            let v = (u * w.re - qm1 / 2.0) / w.im;
+            let mut a = c64::new(u, v);
+            for &(at, d, f) in &sys.impulses {
+                let g = col[d] * f;
+                let za = z.powf(at as f64);
+                a += c64::new(0.0, -g / (2.0 * z.im)) / za;
+            }
+            2.0 * a.norm()
+        }
+        _ => q0.abs().max(qm1.abs()),
+    };
+    sys.outputs
+        .iter()
+        .map(|(_, terms)| envelope * terms.iter().map(|&(g, d)| g * col[d]).sum::<f64>().abs())
+        .collect()
 }
 
 /// Largest number of dofs the dense methods accept.
@@ -372,18 +360,7 @@ fn state_space(
     let n = sys.len();
     let fs = sys.rate;
     // in the scaled coordinates y = M^1/2 x: A = [[2I - Ks - Rs, -I + Rs], [I, 0]]
-    let a = Mat::<f64>::from_fn(2 * n, 2 * n, |i, j| match (i < n, j < n) {
-        (true, true) => (if i == j { 2.0 } else { 0.0 }) - ks[(i, j)] - rs[(i, j)],
-        (true, false) => (if i == j - n { -1.0 } else { 0.0 }) + rs[(i, j - n)],
-        (false, true) => {
-            if i - n == j {
-                1.0
-            } else {
-                0.0
-            }
-        }
-        (false, false) => 0.0,
-    });
+    let a = crate::matrices::state_matrix(n, |i, j| ks[(i, j)] + rs[(i, j)], |i, j| rs[(i, j)]);
     let eig = a
         .eigen()
         .map_err(|e| AnalysisError::NoConvergence(format!("{e:?}")))?;

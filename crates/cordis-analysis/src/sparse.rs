@@ -32,7 +32,7 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{c64, Accum, Conj, Mat, MatRef, Par, Side};
 
 use crate::linear::LinearSystem;
-use crate::modes::{finish, mode_from_quadratic, Mode, ModeKind};
+use crate::modes::{finish, modal_amplitudes, mode_from_quadratic, Mode, ModeKind};
 use crate::AnalysisError;
 
 /// How [`lowest_modes`] found the poles.
@@ -674,49 +674,6 @@ fn sort(modes: &mut [Mode]) {
     });
 }
 
-/// Amplitudes of a decoupled mode at the outputs, from the initial state and impulses (as the
-/// dense method).
-fn modal_amplitudes(sys: &LinearSystem, mode: &Mode, lambda: f64) -> Vec<f64> {
-    let col = &mode.shape;
-    let fs = sys.rate;
-    let pb: f64 = col.iter().zip(&sys.b).map(|(p, b)| p * b).sum();
-    let eq = if mode.kind == ModeKind::Rigid {
-        0.0
-    } else {
-        pb / lambda
-    };
-    let proj = |x: &[f64]| -> f64 {
-        col.iter()
-            .zip(&sys.mass)
-            .zip(x)
-            .map(|((p, m), x)| p * m * x)
-            .sum::<f64>()
-            - eq
-    };
-    let (q0, qm1) = (proj(&sys.x0), proj(&sys.xm1));
-    let envelope = match mode.kind {
-        ModeKind::Oscillating => {
-            let theta = mode.freq_hz * std::f64::consts::TAU / fs;
-            let z = c64::new(mode.radius * theta.cos(), mode.radius * theta.sin());
-            let w = c64::new(1.0, 0.0) / z;
-            let u = q0 / 2.0;
-            let v = (u * w.re - qm1 / 2.0) / w.im;
-            let mut a = c64::new(u, v);
-            for &(at, d, f) in &sys.impulses {
-                let g = col[d] * f;
-                let za = z.powf(at as f64);
-                a += c64::new(0.0, -g / (2.0 * z.im)) / za;
-            }
-            2.0 * a.norm()
-        }
-        _ => q0.abs().max(qm1.abs()),
-    };
-    sys.outputs
-        .iter()
-        .map(|(_, terms)| envelope * terms.iter().map(|&(g, d)| g * col[d]).sum::<f64>().abs())
-        .collect()
-}
-
 /// A sparse complex LU (partial pivoting) with its scratch space, reused across factorisations.
 struct ComplexLu<'a> {
     pat: &'a Pattern,
@@ -934,22 +891,18 @@ fn refined(sys: &LinearSystem, pat: &Pattern, count: usize) -> Result<LowestMode
     }
     let coupling = if big > 0.0 { off / big } else { 0.0 };
     // projected state matrix [[2I - Λ - C, -I + C], [I, 0]]
-    let a = Mat::<f64>::from_fn(2 * c, 2 * c, |i, j| match (i < c, j < c) {
-        (true, true) => {
-            (if i == j { 2.0 - lambda[i] } else { 0.0 }) - 0.5 * (cm[(i, j)] + cm[(j, i)])
-        }
-        (true, false) => {
-            (if i == j - c { -1.0 } else { 0.0 }) + 0.5 * (cm[(i, j - c)] + cm[(j - c, i)])
-        }
-        (false, true) => {
-            if i - c == j {
-                1.0
+    let sym = |i: usize, j: usize| 0.5 * (cm[(i, j)] + cm[(j, i)]);
+    let a = crate::matrices::state_matrix(
+        c,
+        |i, j| {
+            if i == j {
+                lambda[i] + sym(i, j)
             } else {
-                0.0
+                sym(i, j)
             }
-        }
-        (false, false) => 0.0,
-    });
+        },
+        sym,
+    );
     let eig = a
         .eigen()
         .map_err(|e| AnalysisError::NoConvergence(format!("{e:?}")))?;

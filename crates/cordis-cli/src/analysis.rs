@@ -25,10 +25,28 @@ fn load(args: &ModelArgs) -> Result<Model, u8> {
     }
 }
 
-fn linearise(model: &Model) -> Result<LinearSystem, u8> {
-    LinearSystem::from_model(model).map_err(|e| {
+/// The model and its linearisation (errors printed).
+fn load_linear(args: &ModelArgs) -> Result<(Model, LinearSystem), u8> {
+    let model = load(args)?;
+    let sys = LinearSystem::from_model(&model).map_err(|e| {
         eprintln!("cordis: {e}");
         exit::INVALID
+    })?;
+    Ok((model, sys))
+}
+
+/// The dof of a mobile module named on the command line (`flag` names the option in messages).
+fn dof_named(model: &Model, sys: &LinearSystem, name: &str, flag: &str) -> Result<usize, u8> {
+    sys.dof(name).ok_or_else(|| {
+        let hint = cordis_model::did_you_mean(name, sys.names.iter().map(String::as_str))
+            .unwrap_or_else(|| "name a mas or cel of the model".into());
+        let what = if model.materials.iter().any(|m| m.name == name) {
+            "is a fixed module (sol or enx): it cannot move"
+        } else {
+            "is not a module of the model"
+        };
+        eprintln!("cordis: {flag} {name}: `{name}` {what}\n  hint: {hint}");
+        exit::USAGE
     })
 }
 
@@ -110,12 +128,8 @@ pub fn modes(
     spec: &crate::SpecArgs,
     count: Option<usize>,
 ) -> u8 {
-    let model = match load(args) {
-        Ok(m) => m,
-        Err(c) => return c,
-    };
-    let sys = match linearise(&model) {
-        Ok(s) => s,
+    let (model, sys) = match load_linear(args) {
+        Ok(x) => x,
         Err(c) => return c,
     };
     let ma = match count {
@@ -303,12 +317,8 @@ fn modes_plot(model: &Model, ma: &Found, spec: &crate::SpecArgs, path: &Path) ->
 
 /// `cordis matrices`.
 pub fn matrices(args: &ModelArgs, out: Option<&PathBuf>, csv_dir: Option<&PathBuf>) -> u8 {
-    let model = match load(args) {
-        Ok(m) => m,
-        Err(c) => return c,
-    };
-    let sys = match linearise(&model) {
-        Ok(s) => s,
+    let (model, sys) = match load_linear(args) {
+        Ok(x) => x,
         Err(c) => return c,
     };
     let mx = sys.matrices();
@@ -438,30 +448,13 @@ pub struct ResponseArgs<'a> {
 
 /// `cordis response`.
 pub fn response(args: &ModelArgs, r: &ResponseArgs<'_>) -> u8 {
-    let model = match load(args) {
-        Ok(m) => m,
+    let (model, sys) = match load_linear(args) {
+        Ok(x) => x,
         Err(c) => return c,
-    };
-    let sys = match linearise(&model) {
-        Ok(s) => s,
-        Err(c) => return c,
-    };
-    let find = |name: &str, flag: &str| -> Result<usize, u8> {
-        sys.dof(name).ok_or_else(|| {
-            let hint = cordis_model::did_you_mean(name, sys.names.iter().map(String::as_str))
-                .unwrap_or_else(|| "name a mas or cel of the model".into());
-            let what = if model.materials.iter().any(|m| m.name == name) {
-                "is a fixed module (sol or enx): it cannot move"
-            } else {
-                "is not a module of the model"
-            };
-            eprintln!("cordis: {flag} {name}: `{name}` {what}\n  hint: {hint}");
-            exit::USAGE
-        })
     };
     let (a, b) = match (
-        find(r.force_at, "--force-at"),
-        find(r.listen_at, "--listen-at"),
+        dof_named(&model, &sys, r.force_at, "--force-at"),
+        dof_named(&model, &sys, r.listen_at, "--listen-at"),
     ) {
         (Ok(a), Ok(b)) => (a, b),
         (Err(c), _) | (_, Err(c)) => return c,
@@ -585,25 +578,14 @@ pub fn graph(args: &ModelArgs, out: Option<&PathBuf>) -> u8 {
 
 /// `cordis export spice`.
 pub fn spice(args: &ModelArgs, force_at: Option<&str>, out: Option<&PathBuf>) -> u8 {
-    let model = match load(args) {
-        Ok(m) => m,
+    let (model, sys) = match load_linear(args) {
+        Ok(x) => x,
         Err(c) => return c,
     };
-    let sys = match linearise(&model) {
-        Ok(s) => s,
-        Err(c) => return c,
-    };
-    let a = match force_at {
+    let a = match force_at.map(|name| dof_named(&model, &sys, name, "--force-at")) {
         None => 0,
-        Some(name) => match sys.dof(name) {
-            Some(d) => d,
-            None => {
-                let hint = cordis_model::did_you_mean(name, sys.names.iter().map(String::as_str))
-                    .unwrap_or_else(|| "name a mas or cel of the model".into());
-                eprintln!("cordis: --force-at {name}: `{name}` is not a mobile module of the model\n  hint: {hint}");
-                return exit::USAGE;
-            }
-        },
+        Some(Ok(d)) => d,
+        Some(Err(c)) => return c,
     };
     let title = format!("cordis mobility analogue of {}", model.path.display());
     match cordis_analysis::spice_netlist(

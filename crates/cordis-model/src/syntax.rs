@@ -198,7 +198,8 @@ impl LineLexer<'_> {
                 continue;
             }
             let start = i;
-            let after_close = matches!(toks.last(), Some(Token { tok: Tok::Sym(')'), span }) if span.end == self.base + i);
+            // letters glued to a number or to `)` are a unit: `440Hz`, `(2*k)N/m`
+            let unit_here = matches!(toks.last(), Some(Token { tok: Tok::Num(_) | Tok::Sym(')'), span }) if span.end == self.base + i);
             if c.is_ascii_digit()
                 || (c == '.' && bytes.get(i + 1).is_some_and(|b| b.is_ascii_digit()))
             {
@@ -230,17 +231,9 @@ impl LineLexer<'_> {
                     tok: Tok::Num(v),
                     span: self.span(start, i),
                 });
-                if i < bytes.len() && bytes[i].is_ascii_alphabetic() {
-                    let (u, end) = self.lex_unit(i)?;
-                    toks.push(Token {
-                        tok: Tok::Unit(u),
-                        span: self.span(i, end),
-                    });
-                    i = end;
-                }
                 continue;
             }
-            if after_close && c.is_ascii_alphabetic() {
+            if unit_here && c.is_ascii_alphabetic() {
                 let (u, end) = self.lex_unit(i)?;
                 toks.push(Token {
                     tok: Tok::Unit(u),

@@ -198,3 +198,37 @@ pub fn spectrogram_png(
     draw::write_png(&spec, &plan, duration, opts, path)?;
     Ok(spec)
 }
+
+/// Checks a frequency range `[min, max)` for a plot axis (`log`: a logarithmic axis).
+pub(crate) fn check_freq_range(min: f64, max: f64, log: bool) -> Result<(), PlotError> {
+    let bad = |m: String| Err(PlotError::BadOptions(m));
+    if !(min.is_finite() && min >= 0.0) {
+        return bad(format!("min_freq is {min} Hz; it must be 0 Hz or more"));
+    }
+    if log && min <= 0.0 {
+        return bad(format!(
+            "min_freq is {min} Hz on a logarithmic axis, which cannot reach 0 Hz \
+             (hint: 20 Hz, or leave it unset)"
+        ));
+    }
+    if min >= max {
+        return bad(format!("min_freq {min} Hz is not below max_freq {max} Hz"));
+    }
+    Ok(())
+}
+
+/// Checks a signal to analyse: not empty, finite samples, a positive rate.
+pub(crate) fn check_signal(samples: &[f64], rate: f64) -> Result<(), PlotError> {
+    if samples.is_empty() {
+        return Err(PlotError::Empty);
+    }
+    if let Some((index, &value)) = samples.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+        return Err(PlotError::NonFinite { index, value });
+    }
+    if !(rate.is_finite() && rate > 0.0) {
+        return Err(PlotError::BadOptions(format!(
+            "the sample rate is {rate} Hz; it must be a positive number such as 48000"
+        )));
+    }
+    Ok(())
+}

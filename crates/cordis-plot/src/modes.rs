@@ -88,17 +88,7 @@ fn bad(msg: String) -> PlotError {
 /// (`index` is its position), [`PlotError::BadOptions`] for a rate that is not a positive
 /// number or a window outside 16 to 2^24 samples.
 pub fn spectrum(samples: &[f64], rate: f64, window: usize) -> Result<Spectrum, PlotError> {
-    if samples.is_empty() {
-        return Err(PlotError::Empty);
-    }
-    if let Some((index, &value)) = samples.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-        return Err(PlotError::NonFinite { index, value });
-    }
-    if !(rate.is_finite() && rate > 0.0) {
-        return Err(bad(format!(
-            "the sample rate is {rate} Hz; it must be a positive number such as 48000"
-        )));
-    }
+    crate::check_signal(samples, rate)?;
     if !(16..=MAX_WINDOW).contains(&window) {
         return Err(bad(format!(
             "window is {window} samples; it must be between 16 and {MAX_WINDOW} \
@@ -207,22 +197,7 @@ fn plan(
         }
         None => f_first.min(max / 2.0),
     };
-    if !(min.is_finite() && min >= 0.0) {
-        return Err(bad(format!(
-            "min_freq is {min} Hz; it must be 0 Hz or more"
-        )));
-    }
-    if opts.log_freq && min <= 0.0 {
-        return Err(bad(format!(
-            "min_freq is {min} Hz on a logarithmic axis, which cannot reach 0 Hz \
-             (hint: 20 Hz, or leave it unset)"
-        )));
-    }
-    if min >= max {
-        return Err(bad(format!(
-            "min_freq {min} Hz is not below max_freq {max} Hz"
-        )));
-    }
+    crate::check_freq_range(min, max, opts.log_freq)?;
     let inside: Vec<usize> = (0..f.len())
         .filter(|&i| f[i] >= min && f[i] <= max)
         .collect();

@@ -34,17 +34,7 @@ impl Plan {
         rate: f64,
         opts: &SpectrogramOptions,
     ) -> Result<Plan, PlotError> {
-        if samples.is_empty() {
-            return Err(PlotError::Empty);
-        }
-        if let Some((index, &value)) = samples.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-            return Err(PlotError::NonFinite { index, value });
-        }
-        if !(rate.is_finite() && rate > 0.0) {
-            return Err(bad(format!(
-                "the sample rate is {rate} Hz; it must be a positive number such as 48000"
-            )));
-        }
+        crate::check_signal(samples, rate)?;
         if opts.window < 16 {
             return Err(bad(format!(
                 "window is {} samples; it must be at least 16 (hint: 2048 suits most audio, \
@@ -94,22 +84,7 @@ impl Plan {
             0.0
         };
         let min_freq = opts.min_freq.unwrap_or(default_min);
-        if !(min_freq.is_finite() && min_freq >= 0.0) {
-            return Err(bad(format!(
-                "min_freq is {min_freq} Hz; it must be 0 Hz or more"
-            )));
-        }
-        if opts.log_freq && min_freq <= 0.0 {
-            return Err(bad(format!(
-                "min_freq is {min_freq} Hz on a logarithmic axis, which cannot reach 0 Hz \
-                 (hint: 20 Hz, or leave it unset)"
-            )));
-        }
-        if min_freq >= max_freq {
-            return Err(bad(format!(
-                "min_freq {min_freq} Hz is not below max_freq {max_freq} Hz"
-            )));
-        }
+        crate::check_freq_range(min_freq, max_freq, opts.log_freq)?;
         let df = rate / opts.window as f64;
         let last_bin = opts.window / 2;
         let bin_lo = ((min_freq / df).floor() as usize).min(last_bin);

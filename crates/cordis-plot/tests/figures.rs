@@ -1,6 +1,9 @@
 //! Mode and response figures: the spectrum helper, option checking, and the PNGs they write.
 #![allow(clippy::unwrap_used)]
 
+mod common;
+use common::*;
+
 use std::f64::consts::PI;
 use std::path::Path;
 
@@ -9,26 +12,10 @@ use cordis_plot::{
     ResponsePlotOptions, Spectrum, FLOOR_DB,
 };
 
-const RATE: f64 = 48_000.0;
 /// Colours of the figures: the spectrum (first series) and the predicted modes (second).
 const BLUE: [u8; 3] = [0, 114, 178];
 const VERMILION: [u8; 3] = [213, 94, 0];
 const GREEN: [u8; 3] = [0, 158, 115];
-
-fn sine(freq: f64, seconds: f64) -> Vec<f64> {
-    (0..(seconds * RATE) as usize)
-        .map(|n| (2.0 * PI * freq * n as f64 / RATE).sin())
-        .collect()
-}
-
-/// Width and height from the IHDR chunk, after checking the PNG signature.
-fn png_size(path: &Path) -> (u32, u32) {
-    let bytes = std::fs::read(path).unwrap();
-    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "not a PNG");
-    assert_eq!(&bytes[12..16], b"IHDR");
-    let be = |i: usize| u32::from_be_bytes(bytes[i..i + 4].try_into().unwrap());
-    (be(16), be(20))
-}
 
 /// A decoded RGB picture.
 struct Picture {
@@ -226,12 +213,7 @@ fn modes_png_has_the_requested_size() {
         assert!(p.count([0, 0, 0]) > 100);
     }
     // Nothing but the pictures: no temporaries left behind.
-    let names: Vec<String> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    assert_eq!(names.len(), 4, "{names:?}");
-    assert!(names.iter().all(|n| !n.starts_with('.')), "{names:?}");
+    only_pictures_left(dir.path(), 4);
 }
 
 #[test]

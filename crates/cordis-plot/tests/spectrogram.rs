@@ -1,20 +1,15 @@
 //! Spectrogram numbers and PNG figures.
 #![allow(clippy::unwrap_used)]
 
+mod common;
+use common::*;
+
 use std::f64::consts::PI;
 use std::path::Path;
 
 use cordis_plot::{
     spectrogram, spectrogram_png, PlotError, SpectrogramOptions, FLOOR_DB, MAX_FRAMES,
 };
-
-const RATE: f64 = 48_000.0;
-
-fn sine(freq: f64, seconds: f64, rate: f64) -> Vec<f64> {
-    (0..(seconds * rate) as usize)
-        .map(|n| (2.0 * PI * freq * n as f64 / rate).sin())
-        .collect()
-}
 
 fn peak_hz(freqs: &[f64], frame: &[f64]) -> f64 {
     let (k, _) = frame
@@ -30,26 +25,6 @@ fn peak_hz(freqs: &[f64], frame: &[f64]) -> f64 {
     freqs[k]
 }
 
-/// Width and height from the IHDR chunk, after checking the PNG signature.
-fn png_size(path: &Path) -> (u32, u32) {
-    let bytes = std::fs::read(path).unwrap();
-    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "not a PNG");
-    assert_eq!(&bytes[12..16], b"IHDR");
-    let be = |i: usize| u32::from_be_bytes(bytes[i..i + 4].try_into().unwrap());
-    (be(16), be(20))
-}
-
-/// Decodes a PNG to RGB bytes.
-fn decode(path: &Path) -> (u32, u32, Vec<u8>) {
-    let decoder = png::Decoder::new(std::fs::File::open(path).unwrap());
-    let mut reader = decoder.read_info().unwrap();
-    let mut buf = vec![0; reader.output_buffer_size()];
-    let info = reader.next_frame(&mut buf).unwrap();
-    assert_eq!(info.color_type, png::ColorType::Rgb);
-    buf.truncate(info.buffer_size());
-    (info.width, info.height, buf)
-}
-
 fn bad_message(result: Result<cordis_plot::Spectrogram, PlotError>) -> String {
     match result {
         Err(PlotError::BadOptions(msg)) => msg,
@@ -59,7 +34,7 @@ fn bad_message(result: Result<cordis_plot::Spectrogram, PlotError>) -> String {
 
 #[test]
 fn sine_peaks_at_its_frequency_in_every_frame() {
-    let x = sine(1000.0, 1.0, RATE);
+    let x = sine(1000.0, 1.0);
     let opts = SpectrogramOptions::default();
     let spec = spectrogram(&x, RATE, &opts).unwrap();
     let df = RATE / opts.window as f64;
@@ -78,8 +53,8 @@ fn sine_peaks_at_its_frequency_in_every_frame() {
 
 #[test]
 fn two_tones_show_up_in_their_own_frames() {
-    let mut x = sine(500.0, 1.0, RATE);
-    x.extend(sine(3000.0, 1.0, RATE));
+    let mut x = sine(500.0, 1.0);
+    x.extend(sine(3000.0, 1.0));
     let spec = spectrogram(&x, RATE, &SpectrogramOptions::default()).unwrap();
     let df = RATE / 2048.0;
     let bin_of = |f: f64| {
@@ -122,7 +97,7 @@ fn two_tones_show_up_in_their_own_frames() {
 #[test]
 fn png_has_the_requested_size_and_looks_like_a_spectrogram() {
     let dir = tempfile::tempdir().unwrap();
-    let x = sine(1000.0, 0.5, RATE);
+    let x = sine(1000.0, 0.5);
     for (w, h) in [(1200, 600), (800, 450), (240, 160), (1000, 1000)] {
         let path = dir.path().join(format!("s{w}x{h}.png"));
         let opts = SpectrogramOptions {
@@ -159,18 +134,13 @@ fn png_has_the_requested_size_and_looks_like_a_spectrogram() {
         );
     }
     // Nothing but the pictures: no temporaries left behind.
-    let names: Vec<String> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    assert_eq!(names.len(), 4, "{names:?}");
-    assert!(names.iter().all(|n| !n.starts_with('.')), "{names:?}");
+    only_pictures_left(dir.path(), 4);
 }
 
 #[test]
 fn log_scale_keeps_the_bins_it_shows_and_draws() {
-    let mut x = sine(100.0, 1.0, RATE);
-    for (i, v) in sine(5000.0, 1.0, RATE).iter().enumerate() {
+    let mut x = sine(100.0, 1.0);
+    for (i, v) in sine(5000.0, 1.0).iter().enumerate() {
         x[i] += 0.5 * v;
     }
     let opts = SpectrogramOptions {
@@ -209,7 +179,7 @@ fn log_scale_keeps_the_bins_it_shows_and_draws() {
 
 #[test]
 fn frequency_range_keeps_only_the_bins_shown() {
-    let x = sine(1000.0, 0.2, RATE);
+    let x = sine(1000.0, 0.2);
     let opts = SpectrogramOptions {
         min_freq: Some(500.0),
         max_freq: Some(2000.0),
@@ -224,7 +194,7 @@ fn frequency_range_keeps_only_the_bins_shown() {
 
 #[test]
 fn short_signals_are_padded_with_zeros() {
-    let x = sine(3000.0, 0.002, RATE); // 96 samples, far shorter than the window
+    let x = sine(3000.0, 0.002); // 96 samples, far shorter than the window
     let spec = spectrogram(&x, RATE, &SpectrogramOptions::default()).unwrap();
     assert_eq!(spec.times_s.len(), 1);
     assert!((peak_hz(&spec.freqs_hz, &spec.db[0]) - 3000.0).abs() < 2.0 * RATE / 2048.0 * 4.0);
@@ -238,7 +208,9 @@ fn short_signals_are_padded_with_zeros() {
 #[test]
 fn long_signals_are_averaged_into_at_most_max_frames_columns() {
     let rate = 8000.0;
-    let x = sine(440.0, 60.0, rate);
+    let x: Vec<f64> = (0..(60.0 * rate) as usize)
+        .map(|n| (2.0 * PI * 440.0 * n as f64 / rate).sin())
+        .collect();
     let opts = SpectrogramOptions {
         window: 256,
         hop: 16,
@@ -267,7 +239,7 @@ fn silence_is_all_floor_and_still_draws() {
 
 #[test]
 fn bad_options_are_named_with_a_reason() {
-    let x = sine(1000.0, 0.1, RATE);
+    let x = sine(1000.0, 0.1);
     let d = SpectrogramOptions::default;
     let cases: Vec<(SpectrogramOptions, f64, &str)> = vec![
         (SpectrogramOptions { window: 8, ..d() }, RATE, "window"),
@@ -379,7 +351,7 @@ fn empty_and_non_finite_input_are_refused() {
     assert!(!path.exists());
     assert!(PlotError::Empty.to_string().contains("empty"));
 
-    let mut x = sine(1000.0, 0.1, RATE);
+    let mut x = sine(1000.0, 0.1);
     x[123] = f64::NAN;
     match spectrogram(&x, RATE, &opts) {
         Err(PlotError::NonFinite { index: 123, value }) => assert!(value.is_nan()),
@@ -393,7 +365,7 @@ fn empty_and_non_finite_input_are_refused() {
 #[test]
 fn unwritable_paths_are_draw_errors() {
     let dir = tempfile::tempdir().unwrap();
-    let x = sine(1000.0, 0.1, RATE);
+    let x = sine(1000.0, 0.1);
     let path = dir.path().join("no such folder").join("s.png");
     match spectrogram_png(&x, RATE, &SpectrogramOptions::default(), &path) {
         Err(e @ PlotError::Draw(_)) => {
