@@ -19,7 +19,10 @@ pub use export::{
 pub use faer;
 pub use linear::{LinearSystem, SymSparse};
 pub use matrices::{rows, Matrices};
-pub use modes::{equilibrium, Method, ModalAnalysis, Mode, ModeKind, DENSE_LIMIT};
+pub use modes::{
+    equilibrium, radius_is_stable, Method, ModalAnalysis, Mode, ModeKind, DENSE_LIMIT,
+    STABILITY_MARGIN,
+};
 pub use sparse::{lowest_modes, receptance_sparse, LowestModes, SparseMethod};
 
 /// Why an analysis could not be done.

@@ -373,3 +373,25 @@ fn non_finite_or_singular_input_is_an_error_not_a_panic() {
         cordis_analysis::AnalysisError::NoMobileModule
     );
 }
+
+#[test]
+fn undamped_modes_of_widely_spread_inertias_count_as_stable() {
+    // The reconfigurable instrument's 1e10 bridges make its undamped modes read r = 1 + ~1e-12:
+    // rounding, not growth. A spring too stiff for its mass is a real instability.
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/instrumentarium/reconfigurable_11s.cordis");
+    let m = cordis_model::load_file(&path, &Options::default()).unwrap();
+    let ma = ModalAnalysis::compute(&LinearSystem::from_model(&m).unwrap()).unwrap();
+    assert!(
+        cordis_analysis::radius_is_stable(ma.max_radius),
+        "{}",
+        ma.max_radius
+    );
+    let hot = load("sol g\nmas m M=1 X0=1\nres r g m K=5\nsox o m\n");
+    let ma = ModalAnalysis::compute(&LinearSystem::from_model(&hot).unwrap()).unwrap();
+    assert!(
+        !cordis_analysis::radius_is_stable(ma.max_radius),
+        "{}",
+        ma.max_radius
+    );
+}

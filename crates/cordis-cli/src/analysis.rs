@@ -182,7 +182,7 @@ pub fn modes(
             "dofs": sys.names,
             "outputs": outs,
             "max_pole_radius": num(ma.max_radius),
-            "stable": ma.max_radius <= 1.0,
+            "stable": cordis_analysis::radius_is_stable(ma.max_radius),
             "free_parts": sys.free_parts.iter().map(|p| p.iter().map(|&d| sys.names[d].clone()).collect::<Vec<_>>()).collect::<Vec<_>>(),
             "linearised": sys.notes,
             "modes": modes,
@@ -224,7 +224,7 @@ pub fn modes(
             } else {
                 ""
             },
-            if ma.max_radius <= 1.0 {
+            if cordis_analysis::radius_is_stable(ma.max_radius) {
                 "stable"
             } else {
                 "UNSTABLE: some mode grows"
@@ -265,7 +265,7 @@ pub fn modes(
         }
         eprintln!("cordis: wrote {}", path.display());
     }
-    if ma.max_radius > 1.0 {
+    if !cordis_analysis::radius_is_stable(ma.max_radius) {
         exit::UNSTABLE
     } else {
         exit::OK

@@ -108,7 +108,7 @@ pub fn check(args: &ModelArgs) -> u8 {
                 .map(|ma| (sys, ma))
         });
     let network_stable = match &poles {
-        Some((_, ma)) => ma.max_radius <= 1.0 + 1e-12,
+        Some((_, ma)) => cordis_analysis::radius_is_stable(ma.max_radius),
         None => s.lambda_max < 4.0,
     };
     let all_stable = network_stable
@@ -135,7 +135,7 @@ pub fn check(args: &ModelArgs) -> u8 {
             "  network (linearised at rest, {} mobile modules): largest pole radius {:.12} (must be <= 1): {}",
             sys.len(),
             ma.max_radius,
-            if ma.max_radius <= 1.0 + 1e-12 { "stable" } else { "UNSTABLE" }
+            if cordis_analysis::radius_is_stable(ma.max_radius) { "stable" } else { "UNSTABLE" }
         );
         if s.includes_nonlinear && s.lambda_max >= 4.0 {
             outln!(out, "  warning: with every BUT and LNL at its stiffest the largest eigenvalue of M^-1 K is {:.6} (>= 4): the model may blow up when they engage", s.lambda_max);
@@ -176,7 +176,7 @@ pub fn check(args: &ModelArgs) -> u8 {
             .modes
             .iter()
             .max_by(|a, b| a.radius.total_cmp(&b.radius))?;
-        (worst.radius > 1.0 + 1e-12).then(|| {
+        (!cordis_analysis::radius_is_stable(worst.radius)).then(|| {
             let peak = worst.shape.iter().fold(0.0f64, |a, v| a.max(v.abs()));
             let mut at: Vec<(usize, f64)> = worst
                 .shape
