@@ -9,9 +9,12 @@
 //! Cases (each model built from `.cordis` text with `cordis_model::load_str`):
 //! - `dense`: all modes of 2,000-mass networks by the dense `ModalAnalysis::compute`, damping
 //!   proportional (decoupled method): a damped string, and a random network. Target: < 5 s.
+//! - `refined`: all modes of 2,000-mass networks with non-proportional damping whose sparse
+//!   factorisations are cheap (each pole refined on the full problem and certified): a string
+//!   damped unevenly, and a 40 × 50 membrane with three dampers to the ground. Target: < 5 s.
 //! - `statespace`: all modes of a 2,000-mass random network with non-proportional damping (the dense
-//!   `2n = 4000` state matrix). Timed once: it is the slow path. Not in the default selection
-//!   unless asked for, or `CORDIS_BENCH_ALL=1`.
+//!   `2n = 4000` state matrix: a random graph has no cheap sparse factorisation). Timed once: it is
+//!   the slow path. Not in the default selection unless asked for, or `CORDIS_BENCH_ALL=1`.
 //! - `lowest`: the 50 lowest modes of a damped 100 × 100 membrane (10,000 masses) by
 //!   `lowest_modes` (Z on every spring: Rayleigh damping), and of the same membrane with three
 //!   dampers to the ground added (non-proportional: each pole refined). Target: < 10 s.
@@ -84,6 +87,24 @@ fn random_network(n: usize, proportional: bool) -> String {
     t + "enf hit m1 signal=impulse(at=0, amp=1)\nsox o m0\n"
 }
 
+/// A string damped unevenly: air damping growing along it, dampers to the ground at two points, a
+/// heavy mass on its free end (the damping couples the undamped modes).
+fn uneven_string(n: usize) -> String {
+    let mut t = format!(
+        "sol g\nstring s n={n} M=1 K=0.2 Z=1e-5 ends=fixed,free\nmas heavy M=40\nref end s[{}] heavy K=0.05\n",
+        n - 1
+    );
+    for i in (0..n).step_by(7) {
+        t += &format!("fro air{i} s[{i}] g Z={}\n", 1e-6 * (1.0 + i as f64 / 50.0));
+    }
+    t += &format!(
+        "fro d1 g s[{}] Z=3e-3\nfro d2 g s[{}] Z=1e-3\n",
+        n / 3,
+        2 * n / 3
+    );
+    t + "enf hit s[3] signal=impulse(at=0, amp=1)\nsox o s[1] + 0.5*heavy\n"
+}
+
 const MEMBRANE: &str = "membrane mem rows=100 cols=100 M=1 K=0.1 Z=1e-4 border=fixed\n\
     enf hit mem[2,2] signal=impulse(at=0, amp=1)\nsox o mem[50,50]\n";
 
@@ -121,6 +142,7 @@ fn method(m: &Method) -> String {
         Method::Undamped => "undamped".into(),
         Method::Decoupled => "decoupled".into(),
         Method::StateSpace { coupling } => format!("state space (coupling {coupling:.2e})"),
+        Method::Refined { factorisations, .. } => format!("refined ({factorisations} LDLᵀ)"),
     }
 }
 
@@ -166,6 +188,20 @@ fn main() {
         dense(
             "random_N2000 (Z = 1e-3 K)",
             &random_network(2000, true),
+            RUNS,
+            Some(5.0),
+        );
+    }
+    if want("refined") {
+        dense(
+            "string_N2000 uneven damping",
+            &uneven_string(2000),
+            RUNS,
+            Some(5.0),
+        );
+        dense(
+            "membrane_40x50 + 3 dampers",
+            "membrane mem rows=40 cols=50 M=1 K=0.1 Z=1e-4 border=fixed\nsol g\nfro d1 g mem[20,31] Z=5e-3\nfro d2 g mem[7,12] Z=2e-3\nfro d3 g mem[31,46] Z=1e-2\nenf hit mem[2,2] signal=impulse(at=0, amp=1)\nsox o mem[20,25]\n",
             RUNS,
             Some(5.0),
         );

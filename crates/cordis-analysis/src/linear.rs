@@ -54,14 +54,17 @@ impl SymSparse {
         m
     }
 
-    /// `y = A x`.
-    pub fn mul(&self, x: &[f64], y: &mut [f64]) {
-        for (i, (yi, xi)) in y.iter_mut().zip(x).enumerate() {
-            *yi = self.diag[i] * xi;
+    /// `y = A x` (real or complex `x`).
+    pub fn mul<T>(&self, x: &[T], y: &mut [T])
+    where
+        T: Copy + std::ops::Mul<f64, Output = T> + std::ops::AddAssign,
+    {
+        for (i, (yi, &xi)) in y.iter_mut().zip(x).enumerate() {
+            *yi = xi * self.diag[i];
         }
         for &(i, j, v) in &self.off {
-            y[i] += v * x[j];
-            y[j] += v * x[i];
+            y[i] += x[j] * v;
+            y[j] += x[i] * v;
         }
     }
 

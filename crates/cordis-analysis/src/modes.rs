@@ -65,6 +65,17 @@ pub enum Method {
         /// Relative size of the damping's off-diagonal part in the undamped modes.
         coupling: f64,
     },
+    /// Damping not diagonal in the undamped modes, on a network whose sparse factorisations are
+    /// cheap: each pole refined on the full quadratic problem from its mode's own damping, then
+    /// certified (see [`ModalAnalysis::compute`]).
+    Refined {
+        /// As for `StateSpace`.
+        coupling: f64,
+        /// Sparse complex factorisations used.
+        factorisations: usize,
+        /// Largest relative residual `‖T(z) v‖ / (‖T‖ ‖v‖)` of the poles.
+        max_residual: f64,
+    },
 }
 
 /// The modes of a network and what the transfer functions need.
@@ -89,11 +100,13 @@ enum Decomposition {
         lambda: Vec<f64>,
         c: Vec<f64>,
     },
-    /// `A_d = V diag(mu) V^-1`; `vinv_b` = V^-1 [M^-1; 0] (2n × n), `v_top` = top half of V.
+    /// `A_d = V diag(mu) V^-1`; `vinv_b` = V^-1 [M^-1; 0] (2n × n), `v_top` = top half of V;
+    /// `rigid`: M-orthonormal rigid motions (double poles at 1) kept out of `mu`.
     State {
         mu: Vec<c64>,
         v_top: Mat<c64>,
         vinv_b: Mat<c64>,
+        rigid: Vec<Vec<f64>>,
     },
 }
 
@@ -147,7 +160,33 @@ pub(crate) fn finish(kind: ModeKind, freq: f64, tau_s: f64, radius: f64, lambda:
 
 impl ModalAnalysis {
     /// All the modes of a linear system (dense: up to a few thousand dofs).
+    ///
+    /// Undamped, or with damping diagonal in the undamped modes, the poles follow in closed form.
+    /// Otherwise, on a network whose sparse factorisations are cheaper than the dense
+    /// eigensolver (chains, strings, membranes: not dense random graphs), each pole is refined on
+    /// the full problem ([`Method::Refined`]) and the result certified (every residual at rounding
+    /// level, every pole found once, their sum equal to the trace of the state matrix); when the
+    /// estimate says dense, or the certification fails, the state matrix's eigenvalues
+    /// ([`Method::StateSpace`]).
     pub fn compute(sys: &LinearSystem) -> Result<ModalAnalysis, AnalysisError> {
+        Self::compute_with(sys, false)?.ok_or_else(|| {
+            AnalysisError::NoConvergence("no method gave the modes of this network".into())
+        })
+    }
+
+    /// The refined method whatever its cost estimate: `Ok(None)` when the damping does not
+    /// couple the undamped modes (the closed forms are exact) or the result cannot be certified.
+    /// For checking the refined method against the dense one.
+    pub fn compute_refined(sys: &LinearSystem) -> Result<Option<ModalAnalysis>, AnalysisError> {
+        Self::compute_with(sys, true)
+    }
+
+    /// `force_refined`: take the refined method whatever its cost, and return `None` rather than
+    /// another method.
+    fn compute_with(
+        sys: &LinearSystem,
+        force_refined: bool,
+    ) -> Result<Option<ModalAnalysis>, AnalysisError> {
         let n = sys.len();
         if n == 0 {
             return Err(AnalysisError::NoMobileModule);
@@ -187,10 +226,18 @@ impl ModalAnalysis {
         let rs = scale(&sys.r.dense());
         check_finite(&rs, "R")?;
         let (method, c) = if undamped {
+            if force_refined {
+                return Ok(None);
+            }
             (Method::Undamped, vec![0.0; n])
         } else {
-            // C = Vᵀ (M^-1/2 R M^-1/2) V
-            let cm = v.transpose() * &rs * v;
+            // C = Φᵀ R Φ (= Vᵀ (M^-1/2 R M^-1/2) V), R sparse
+            let mut rphi = Mat::<f64>::zeros(n, n);
+            for j in 0..n {
+                sys.r.mul(phi.col_as_slice(j), rphi.col_as_slice_mut(j));
+            }
+            let cm = phi.transpose() * &rphi;
+            drop(rphi);
             let big = (0..n)
                 .flat_map(|i| (0..n).map(move |j| (i, j)))
                 .fold(0.0f64, |a, (i, j)| a.max(cm[(i, j)].abs()));
@@ -199,16 +246,53 @@ impl ModalAnalysis {
                 .filter(|(i, j)| i != j)
                 .fold(0.0f64, |a, (i, j)| a.max(cm[(i, j)].abs()));
             let coupling = if big > 0.0 { off / big } else { 0.0 };
+            let diag: Vec<f64> = (0..n).map(|j| cm[(j, j)]).collect();
             if coupling <= 1e-12 {
-                (Method::Decoupled, (0..n).map(|j| cm[(j, j)]).collect())
+                if force_refined {
+                    return Ok(None);
+                }
+                (Method::Decoupled, diag)
             } else {
+                if n >= REFINE_MIN || force_refined {
+                    // rigid motions no damper touches (a row of C that is zero)
+                    let rigid: Vec<bool> = (0..n)
+                        .map(|j| {
+                            lambda[j].abs() <= 1e-11 * scale_l
+                                && (0..n).all(|i| cm[(i, j)].abs() <= 1e-11 * scale_l)
+                        })
+                        .collect();
+                    if let Some(p) = crate::sparse::all_poles(
+                        sys,
+                        &lambda,
+                        phi.as_ref(),
+                        cm.as_ref(),
+                        &rigid,
+                        force_refined,
+                    )? {
+                        let xeq = modal_equilibrium(sys, &phi, &lambda, scale_l);
+                        let rigid = (0..n)
+                            .filter(|&j| rigid[j])
+                            .map(|j| phi.col(j).iter().copied().collect())
+                            .collect();
+                        let method = Method::Refined {
+                            coupling,
+                            factorisations: p.factorisations,
+                            max_residual: p.max_residual,
+                        };
+                        return Ok(Some(from_poles(
+                            sys, p.poles, rigid, &xeq, method, lambda_max,
+                        )));
+                    }
+                }
+                if force_refined {
+                    return Ok(None);
+                }
                 (Method::StateSpace { coupling }, Vec::new())
             }
         };
         if let Method::StateSpace { .. } = method {
-            return state_space(sys, &ks, &rs, &isq, method, lambda_max);
+            return state_space(sys, &ks, &rs, &isq, method, lambda_max).map(Some);
         }
-        let _ = &rs;
         let mut modes = Vec::with_capacity(n);
         let rigid_tol = 1e-11 * scale_l;
         for j in 0..n {
@@ -231,7 +315,7 @@ impl ModalAnalysis {
             decomposition: Decomposition::Modal { phi, lambda, c },
         };
         ma.sort();
-        Ok(ma)
+        Ok(Some(ma))
     }
 
     /// The modes from the state matrix even when the damping is decoupled (for checking the two
@@ -277,11 +361,20 @@ impl ModalAnalysis {
                 }
                 h
             }
-            Decomposition::State { mu, v_top, vinv_b } => {
+            Decomposition::State {
+                mu,
+                v_top,
+                vinv_b,
+                rigid,
+            } => {
                 // X(z) = V_top (zI - diag(mu))^-1 V^-1 B F, with x(n) the top half of the state
                 let mut h = c64::new(0.0, 0.0);
                 for (k, &m) in mu.iter().enumerate() {
                     h += v_top[(b, k)] * vinv_b[(k, a)] / (z - m);
+                }
+                // a rigid motion: φ_b φ_a / (z - 2 + 1/z)
+                for phi in rigid {
+                    h += c64::new(phi[b] * phi[a], 0.0) / (z - 2.0 + zi);
                 }
                 h
             }
@@ -347,6 +440,9 @@ pub fn radius_is_stable(radius: f64) -> bool {
 /// Largest number of dofs the dense methods accept.
 pub const DENSE_LIMIT: usize = 4000;
 
+/// Networks with fewer dofs always take the dense state-space method when damping couples modes.
+const REFINE_MIN: usize = 200;
+
 fn check_finite(m: &Mat<f64>, what: &str) -> Result<(), AnalysisError> {
     for j in 0..m.ncols() {
         for i in 0..m.nrows() {
@@ -369,7 +465,6 @@ fn state_space(
     lambda_max: f64,
 ) -> Result<ModalAnalysis, AnalysisError> {
     let n = sys.len();
-    let fs = sys.rate;
     // in the scaled coordinates y = M^1/2 x: A = [[2I - Ks - Rs, -I + Rs], [I, 0]]
     let a = crate::matrices::state_matrix(n, |i, j| ks[(i, j)] + rs[(i, j)], |i, j| rs[(i, j)]);
     let eig = a
@@ -401,19 +496,49 @@ fn state_space(
         };
         c64::new((x - xeq[d]) / isq[d], 0.0)
     });
-    let mut coeff = lu.solve(&s0);
+    let coeff = lu.solve(&s0);
+    let mut coeff: Vec<c64> = (0..2 * n).map(|k| coeff[(k, 0)]).collect();
     for &(at, d, f) in &sys.impulses {
         for k in 0..2 * n {
             let step = mu[k].powf((at + 1) as f64);
-            coeff[(k, 0)] += vinv_b[(k, d)] * f / step;
+            coeff[k] += vinv_b[(k, d)] * f / step;
         }
     }
+    let modes = eigen_modes(sys, &mu, &v_top, &coeff, 2 * sys.free_parts.len());
+    let mut ma = ModalAnalysis {
+        max_radius: modes.iter().fold(0.0f64, |a, m| a.max(m.radius)),
+        modes,
+        method,
+        lambda_max,
+        decomposition: Decomposition::State {
+            mu,
+            v_top,
+            vinv_b,
+            rigid: Vec::new(),
+        },
+    };
+    ma.sort();
+    Ok(ma)
+}
+
+/// The modes of an eigendecomposition of the state matrix: `mu` the poles, `v_top` the position
+/// half of their vectors, `coeff` each pole's coefficient for the model's excitation. The
+/// `rigid_poles` poles nearest to 1 (within 1e-6) are rigid motions.
+fn eigen_modes(
+    sys: &LinearSystem,
+    mu: &[c64],
+    v_top: &Mat<c64>,
+    coeff: &[c64],
+    rigid_poles: usize,
+) -> Vec<Mode> {
+    let n = sys.len();
+    let fs = sys.rate;
     let mut modes = Vec::new();
     let mut reals: Vec<usize> = Vec::new();
     // Each free-floating part has a double pole at z = 1 (its rigid motion). A double root is
     // perturbed by about sqrt(eps) in floating point, which could read as a radius above 1: the
     // 2 poles per part nearest to 1 are the rigid modes, exactly.
-    let mut rigid: Vec<usize> = (0..2 * n)
+    let mut rigid: Vec<usize> = (0..mu.len())
         .filter(|&k| (mu[k] - c64::new(1.0, 0.0)).norm() < 1e-6)
         .collect();
     rigid.sort_by(|&a, &b| {
@@ -421,14 +546,14 @@ fn state_space(
             .norm()
             .total_cmp(&(mu[b] - c64::new(1.0, 0.0)).norm())
     });
-    rigid.truncate(2 * sys.free_parts.len());
+    rigid.truncate(rigid_poles);
     for _ in 0..rigid.len() / 2 {
         let mut mode = finish(ModeKind::Rigid, 0.0, f64::INFINITY, 1.0, 0.0);
         mode.amplitudes = vec![0.0; sys.outputs.len()];
         mode.shape = vec![0.0; n];
         modes.push(mode);
     }
-    for k in 0..2 * n {
+    for k in 0..mu.len() {
         if rigid.contains(&k) {
             continue;
         }
@@ -460,7 +585,7 @@ fn state_space(
             .iter()
             .map(|(_, terms)| {
                 let y: c64 = terms.iter().map(|&(g, d)| v_top[(d, k)] * g).sum();
-                2.0 * (coeff[(k, 0)] * y).norm()
+                2.0 * (coeff[k] * y).norm()
             })
             .collect();
         modes.push(mode);
@@ -483,7 +608,7 @@ fn state_space(
             .map(|(_, terms)| {
                 pair.iter()
                     .map(|&k| {
-                        (coeff[(k, 0)] * terms.iter().map(|&(g, d)| v_top[(d, k)] * g).sum::<c64>())
+                        (coeff[k] * terms.iter().map(|&(g, d)| v_top[(d, k)] * g).sum::<c64>())
                             .norm()
                     })
                     .sum()
@@ -491,15 +616,105 @@ fn state_space(
             .collect();
         modes.push(mode);
     }
+    modes
+}
+
+/// Modes from poles refined one by one ([`crate::sparse::all_poles`]): each `(z, v)` with
+/// `T(z) v = 0` stands for `z` and, when complex, its conjugate. For the symmetric `T`, the left
+/// eigenvector of the state matrix for `z` is `[M v; (R - M) v / z]` and its right one `[z v; v]`,
+/// with the product `vᵀ T'(z) v`, `T'(z) = 2 z M + K + R - 2M`: the coefficients of the initial
+/// state and of the impulses follow without inverting anything.
+fn from_poles(
+    sys: &LinearSystem,
+    poles: Vec<(c64, Vec<c64>)>,
+    rigid: Vec<Vec<f64>>,
+    xeq: &[f64],
+    method: Method,
+    lambda_max: f64,
+) -> ModalAnalysis {
+    let n = sys.len();
+    let zero = c64::new(0.0, 0.0);
+    let mut mu = Vec::with_capacity(2 * n);
+    let mut vecs: Vec<Vec<c64>> = Vec::with_capacity(2 * n);
+    for (w, v) in poles {
+        let z = w + 1.0;
+        if z.im != 0.0 {
+            mu.push(z.conj());
+            vecs.push(v.iter().map(|x| x.conj()).collect());
+        }
+        mu.push(z);
+        vecs.push(v);
+    }
+    let m = mu.len();
+    let (k, r) = (&sys.k, &sys.r);
+    let mut v_top = Mat::<c64>::zeros(n, m);
+    let mut vinv_b = Mat::<c64>::zeros(m, n);
+    let mut coeff = vec![zero; m];
+    let d0: Vec<f64> = sys.x0.iter().zip(xeq).map(|(x, e)| x - e).collect();
+    let d1: Vec<f64> = sys.xm1.iter().zip(xeq).map(|(x, e)| x - e).collect();
+    let (mut kv, mut rv, mut rd1) = (vec![zero; n], vec![zero; n], vec![0.0; n]);
+    r.mul(&d1, &mut rd1);
+    for (c, (&z, v)) in mu.iter().zip(&vecs).enumerate() {
+        k.mul(v, &mut kv);
+        r.mul(v, &mut rv);
+        // vᵀ T'(z) v = Σ v_i [(2z - 2) m_i v_i + (K v)_i + (R v)_i]
+        let mut tp = zero;
+        let (mut top, mut back) = (zero, zero);
+        for i in 0..n {
+            let mi = sys.mass[i];
+            tp += v[i] * ((z * 2.0 - 2.0) * mi * v[i] + kv[i] + rv[i]);
+            top += v[i] * (mi * d0[i]);
+            back += v[i] * (rd1[i] - mi * d1[i]);
+        }
+        for i in 0..n {
+            v_top[(i, c)] = z * v[i];
+            vinv_b[(c, i)] = v[i] / tp;
+        }
+        coeff[c] = (top + back / z) / tp;
+        for &(at, d, f) in &sys.impulses {
+            coeff[c] += vinv_b[(c, d)] * f / z.powf((at + 1) as f64);
+        }
+    }
+    let mut modes = eigen_modes(sys, &mu, &v_top, &coeff, 0);
+    for phi in &rigid {
+        let mut mode = finish(ModeKind::Rigid, 0.0, f64::INFINITY, 1.0, 0.0);
+        mode.amplitudes = vec![0.0; sys.outputs.len()];
+        mode.shape = phi.clone();
+        modes.push(mode);
+    }
     let mut ma = ModalAnalysis {
         max_radius: modes.iter().fold(0.0f64, |a, m| a.max(m.radius)),
         modes,
         method,
         lambda_max,
-        decomposition: Decomposition::State { mu, v_top, vinv_b },
+        decomposition: Decomposition::State {
+            mu,
+            v_top,
+            vinv_b,
+            rigid,
+        },
     };
     ma.sort();
-    Ok(ma)
+    ma
+}
+
+/// The static equilibrium `K x = b` from the undamped modes (`Φ` M-orthonormal): `Σ φ_j (φ_jᵀ b)
+/// / λ_j` over the modes with `λ_j` above the rigid threshold.
+fn modal_equilibrium(sys: &LinearSystem, phi: &Mat<f64>, lambda: &[f64], scale_l: f64) -> Vec<f64> {
+    let n = sys.len();
+    let mut x = vec![0.0; n];
+    if sys.b.iter().all(|&b| b == 0.0) {
+        return x;
+    }
+    for (j, &l) in lambda.iter().enumerate() {
+        if l.abs() > 1e-11 * scale_l {
+            let p: f64 = (0..n).map(|i| phi[(i, j)] * sys.b[i]).sum::<f64>() / l;
+            for (i, xi) in x.iter_mut().enumerate() {
+                *xi += p * phi[(i, j)];
+            }
+        }
+    }
+    x
 }
 
 /// The static equilibrium `K x = b` (least squares on free-floating parts: their rigid motion is

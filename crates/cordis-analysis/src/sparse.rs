@@ -932,24 +932,12 @@ fn refined(sys: &LinearSystem, pat: &Pattern, count: usize) -> Result<LowestMode
     starts.truncate(count);
     let symbolic = symbolic_lu(pat)?;
     let ldlt = SymLdlt::new(pat)?;
-    let mut solver = DynamicSolver::new(pat, &ldlt, &symbolic);
-    let mut vals = vec![c64::new(0.0, 0.0); pat.k.len()];
-    // scale of T(1 + w) = M w² + (K + R) w + K for residuals: Gershgorin bounds of M, K + R, K
-    let abs_sum = |f: &dyn Fn(usize) -> f64| -> f64 {
-        let (cp, _) = (pat.col_ptr(), pat.row_idx());
-        (0..n)
-            .map(|col| (cp[col]..cp[col + 1]).map(|p| f(p).abs()).sum::<f64>())
-            .fold(0.0, f64::max)
-    };
-    let nm = abs_sum(&|p| pat.m[p]);
-    let nkr = abs_sum(&|p| pat.k[p] + pat.r[p]);
-    let nk = abs_sum(&|p| pat.k[p]);
-    let mut factorisations = 0usize;
+    let scales = Scales::new(pat);
+    let mut refiner = Refiner::new(pat, &ldlt, &symbolic);
     let mut max_pole_res = 0.0f64;
     let mut found: Vec<(c64, Vec<c64>)> = Vec::new();
     let mut modes = Vec::with_capacity(count);
     let zero = c64::new(0.0, 0.0);
-    let mut tmp = vec![zero; n];
     for &(start, _) in &starts {
         let (k, kind) = match start {
             Start::Rigid(j) => {
@@ -974,58 +962,12 @@ fn refined(sys: &LinearSystem, pat: &Pattern, count: usize) -> Result<LowestMode
                 "the projected damped problem has a non-finite eigenvector".into(),
             ));
         }
-        // in w = z - 1: T = M w² + (K + R) w + K, where nothing cancels for poles near 1
-        let mut w = mu[k] - 1.0;
-        let mut last_step = f64::INFINITY;
-        for it in 0..30 {
-            // Rayleigh functional: the root of vᵀ T(w) v = 0 nearest w (transposes, no conjugates:
-            // T is complex symmetric, so v is its left eigenvector too)
-            let (mv, krv, kv) = products(pat, &v);
-            let wnew = nearest_root(dot(&v, &mv), dot(&v, &krv), dot(&v, &kv), w);
-            let step = (wnew - w).norm();
-            w = wnew;
-            // the first value is the projected estimate itself: always take one step
-            if it >= 2 && (step <= 4.0 * f64::EPSILON * w.norm() || step >= last_step) {
-                break;
-            }
-            if it >= 1 {
-                last_step = step;
-            }
-            // inverse iteration: v ← A⁻¹ T'(w) v, T'(w) = 2 w M + K + R (A = T / (1 + w))
-            for (t, (m, kr)) in tmp.iter_mut().zip(mv.iter().zip(&krv)) {
-                *t = w * 2.0 * *m + *kr;
-            }
-            factorisations += 1;
-            pat.dynamic(w, &mut vals);
-            let Some(x) = solver.solve(&vals, &tmp) else {
-                break; // exactly singular: w is the pole
-            };
-            tmp.copy_from_slice(x);
-            let nv = tmp.iter().map(|x| x.norm_sqr()).sum::<f64>().sqrt();
-            if !(nv > 0.0 && nv.is_finite()) {
-                break;
-            }
-            for (vi, ti) in v.iter_mut().zip(&tmp) {
-                *vi = *ti / nv;
-            }
-        }
-        // residual ‖T v‖ / ((|w|² ‖M‖ + |w| ‖K + R‖ + ‖K‖) ‖v‖)
-        let tv = {
-            let (a, b, cc) = products(pat, &v);
-            a.iter()
-                .zip(&b)
-                .zip(&cc)
-                .map(|((a, b), c)| (w * w * *a + w * *b + *c).norm_sqr())
-                .sum::<f64>()
-                .sqrt()
-        };
-        let nv = v.iter().map(|x| x.norm_sqr()).sum::<f64>().sqrt();
-        let scale = (w.norm_sqr() * nm + w.norm() * nkr + nk) * nv;
-        let res = tv / scale;
+        let w = refiner.refine(mu[k] - 1.0, &mut v, &scales);
+        let res = scales.residual(pat, w, &v);
         let z = w + 1.0;
         let hz = |z: c64| z.im.abs().atan2(z.re) * fs / std::f64::consts::TAU;
         max_pole_res = max_pole_res.max(res);
-        if !(res <= 1e-9) {
+        if !(res <= POLE_RESIDUAL) {
             return Err(AnalysisError::NoConvergence(format!(
                 "a damped pole near {:.6} Hz did not converge (relative residual {res:.2e})",
                 hz(z)
@@ -1080,13 +1022,440 @@ fn refined(sys: &LinearSystem, pat: &Pattern, count: usize) -> Result<LowestMode
         modes,
         method: SparseMethod::Refined {
             coupling,
-            factorisations,
+            factorisations: refiner.factorisations,
         },
         max_residual: max_res,
         max_pole_residual: max_pole_res,
         shift,
         solves,
     })
+}
+
+/// Every pole of a damped network, each refined on the full quadratic problem from its decoupled
+/// estimate (see [`all_poles`]).
+pub(crate) struct AllPoles {
+    /// One entry per pole with `Im z ≥ 0` (complex poles stand for their conjugate pair too): the
+    /// pole and its vector `v` (`T(z) v = 0`, unit 2-norm).
+    pub poles: Vec<(c64, Vec<c64>)>,
+    /// Sparse complex factorisations used.
+    pub factorisations: usize,
+    /// Largest relative residual `‖T(z) v‖ / (‖T‖ ‖v‖)`.
+    pub max_residual: f64,
+}
+
+/// All the poles of `T(z) = M z² + (K + R - 2M) z + (M - R)` by refining, one by one on the sparse
+/// problem, the poles of each undamped mode with only its own damping `c_j = φ_jᵀ R φ_j`
+/// (`w² + (λ_j + c_jj) w + λ_j = 0` in `w = z - 1`), starting from `φ_j`; modes that the damping
+/// couples strongly (`|w_j C_ij|` above 5 % of `|d_i(w_j)|`, `d_i` mode `i`'s own quadratic) are
+/// grouped, and each group's poles start from the quadratic problem projected on its modes.
+/// `lambda`, `phi` (M-orthonormal columns) are the dense undamped modes, `c = Φᵀ R Φ`; `rigid[j]`
+/// marks the modes left out (rigid motions no damper touches).
+///
+/// `Ok(None)` when the sparse factorisations would cost more than the dense eigensolver (unless
+/// `force`), or when
+/// the result cannot be certified: every pole must converge (relative residual ≤ 1e-9), keep its
+/// kind (complex or real), and be distinct from the others (two starts that reach the same pole
+/// leave another unfound; poles closer than 1e-7 must have `T'`-orthogonal vectors), and the poles
+/// must sum to the trace of the state matrix. The caller then uses the dense method.
+pub(crate) fn all_poles(
+    sys: &LinearSystem,
+    lambda: &[f64],
+    phi: MatRef<'_, f64>,
+    c: MatRef<'_, f64>,
+    rigid: &[bool],
+    force: bool,
+) -> Result<Option<AllPoles>, AnalysisError> {
+    let pat = Pattern::new(sys)?;
+    let n = pat.n;
+    let ldlt = SymLdlt::new(&pat)?;
+    // estimated seconds: two factorisations per pole (each about 1e-10 s per flop of the
+    // estimate plus 5e-7 s per dof of overhead), against the dense eigensolver's 5.5e-10 (2n)³
+    // (measured: 35 s for n = 2000); the sparse method must win by 2 (a failed certification
+    // costs both)
+    let nf = n as f64;
+    let sparse = 2.0 * nf * (1e-10 * ldlt.flops() + 5e-7 * nf);
+    let dense = 5.5e-10 * (2.0 * nf).powi(3);
+    if !force && sparse > 0.5 * dense {
+        return Ok(None);
+    }
+    let starts = match cluster_starts(lambda, phi, c, rigid) {
+        Some(s) => s,
+        None => return Ok(None),
+    };
+    let symbolic = symbolic_lu(&pat)?;
+    let scales = Scales::new(&pat);
+    let threads = std::thread::available_parallelism()
+        .map(|t| t.get())
+        .unwrap_or(1)
+        .min(starts.len().div_ceil(16))
+        .max(1);
+    let chunk = starts.len().div_ceil(threads).max(1);
+    type Refined = (Vec<(c64, Vec<c64>, f64)>, usize);
+    let work = |part: &[PoleStart]| -> Refined {
+        let mut refiner = Refiner::new(&pat, &ldlt, &symbolic);
+        let out = part
+            .iter()
+            .map(|st| {
+                let mut v: Vec<c64> = match &st.v {
+                    StartVector::Mode(j) => phi.col(*j).iter().map(|&x| c64::new(x, 0.0)).collect(),
+                    StartVector::Given(v) => v.clone(),
+                };
+                let w = refiner.refine(st.w, &mut v, &scales);
+                let res = scales.residual(&pat, w, &v);
+                (w, v, res)
+            })
+            .collect();
+        (out, refiner.factorisations)
+    };
+    let parts: Vec<Refined> = if threads == 1 {
+        vec![work(&starts)]
+    } else {
+        std::thread::scope(|s| {
+            let handles: Vec<_> = starts
+                .chunks(chunk)
+                .map(|part| s.spawn(|| work(part)))
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().unwrap_or_else(|_| (Vec::new(), 0)))
+                .collect()
+        })
+    };
+    let factorisations = parts.iter().map(|p| p.1).sum();
+    let refined: Vec<(c64, Vec<c64>, f64)> = parts.into_iter().flat_map(|p| p.0).collect();
+    if refined.len() != starts.len() {
+        return Ok(None); // a worker panicked
+    }
+    let mut max_residual = 0.0f64;
+    let mut poles: Vec<(c64, Vec<c64>)> = Vec::with_capacity(refined.len());
+    let mut sum = c64::new(0.0, 0.0);
+    let mut size = 0.0;
+    for ((w, mut v, res), st) in refined.into_iter().zip(&starts) {
+        let complex = st.complex;
+        max_residual = max_residual.max(res);
+        let z = w + 1.0;
+        let is_complex = z.im.abs() > 1e-14 * z.norm();
+        if !(res <= POLE_RESIDUAL) || is_complex != complex {
+            return Ok(None);
+        }
+        if complex {
+            sum += c64::new(2.0 * w.re, 0.0);
+            size += 2.0 * w.norm();
+        } else {
+            sum += c64::new(w.re, 0.0);
+            size += w.norm();
+        }
+        let w = if complex && w.im < 0.0 {
+            v.iter_mut().for_each(|x| *x = x.conj());
+            w.conj()
+        } else if complex {
+            w
+        } else {
+            v.iter_mut().for_each(|x| *x = c64::new(x.re, 0.0));
+            c64::new(w.re, 0.0)
+        };
+        poles.push((w, v));
+    }
+    // the poles sum to the trace of the state matrix: Σ w = -Σ (K_ii + R_ii) / M_ii (rigid
+    // modes add w = 0)
+    let trace: f64 = (0..n)
+        .map(|i| {
+            let p = diag_pos(&pat, i);
+            -(pat.k[p] + pat.r[p]) / pat.m[p]
+        })
+        .sum();
+    if (sum.re - trace).abs() > 1e-9 * size.max(trace.abs()) + 1e-300 {
+        return Ok(None);
+    }
+    // distinct: poles closer than 1e-7 need T'-orthogonal vectors
+    let mut order: Vec<usize> = (0..poles.len()).collect();
+    order.sort_by(|&a, &b| poles[a].0.re.total_cmp(&poles[b].0.re));
+    let tprime = |w: c64, v: &[c64]| -> Vec<c64> {
+        let (mv, krv, _) = products(&pat, v);
+        mv.iter()
+            .zip(&krv)
+            .map(|(m, kr)| w * 2.0 * *m + *kr)
+            .collect()
+    };
+    for (a, &i) in order.iter().enumerate() {
+        for &j in &order[a + 1..] {
+            let (wi, wj) = (poles[i].0, poles[j].0);
+            let tol = 1e-7 * (wi + 1.0).norm().max((wj + 1.0).norm());
+            if wj.re - wi.re > tol {
+                break;
+            }
+            if (wi - wj).norm() > tol {
+                continue;
+            }
+            let (vi, vj) = (&poles[i].1, &poles[j].1);
+            let ti = tprime(wi, vi);
+            let cross = dot(vj, &ti).norm();
+            let own = dot(vi, &ti).norm() * dot(vj, &tprime(wj, vj)).norm();
+            if cross > 1e-6 * own.sqrt() {
+                return Ok(None);
+            }
+        }
+    }
+    Ok(Some(AllPoles {
+        poles,
+        factorisations,
+        max_residual,
+    }))
+}
+
+/// Where the refinement of one pole starts.
+struct PoleStart {
+    /// The estimate of `w = z - 1`.
+    w: c64,
+    v: StartVector,
+    /// Whether the pole is complex (it stands for its conjugate too) or real.
+    complex: bool,
+}
+
+enum StartVector {
+    /// An undamped mode's shape.
+    Mode(usize),
+    /// A vector from a group's projected problem.
+    Given(Vec<c64>),
+}
+
+/// The starts of [`all_poles`]: one per complex pole with `Im z > 0`, one per real pole. `None`
+/// when a group's projected problem fails.
+fn cluster_starts(
+    lambda: &[f64],
+    phi: MatRef<'_, f64>,
+    c: MatRef<'_, f64>,
+    rigid: &[bool],
+) -> Option<Vec<PoleStart>> {
+    let n = lambda.len();
+    let modes: Vec<usize> = (0..n).filter(|&j| !rigid[j]).collect();
+    // each mode's own poles: w² + (λ + c) w + λ = 0
+    let own = |j: usize| -> (c64, c64) {
+        let (l, cj) = (lambda[j], c[(j, j)]);
+        let b = l + cj;
+        let disc = b * b - 4.0 * l;
+        if disc < 0.0 {
+            let w = c64::new(-0.5 * b, 0.5 * (-disc).sqrt());
+            (w, w.conj())
+        } else {
+            // the larger root in magnitude without cancellation, the other from the product
+            let q = -0.5 * (b + b.signum() * disc.sqrt());
+            let (w1, w2) = if q != 0.0 { (q, l / q) } else { (0.0, 0.0) };
+            (c64::new(w1, 0.0), c64::new(w2, 0.0))
+        }
+    };
+    let d = |i: usize, w: c64| w * w + w * (lambda[i] + c[(i, i)]) + lambda[i];
+    // groups: union-find over strongly coupled pairs
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn find(p: &mut [usize], mut i: usize) -> usize {
+        while p[i] != i {
+            p[i] = p[p[i]];
+            i = p[i];
+        }
+        i
+    }
+    let firsts: Vec<c64> = (0..n).map(|j| own(j).0).collect();
+    for (a, &i) in modes.iter().enumerate() {
+        for &j in &modes[a + 1..] {
+            let cij = c[(i, j)].abs();
+            if cij == 0.0 {
+                continue;
+            }
+            let strong = |p: usize, q: usize| {
+                let w = firsts[p];
+                w.norm() * cij > 0.05 * d(q, w).norm()
+            };
+            if strong(i, j) || strong(j, i) {
+                let (ri, rj) = (find(&mut parent, i), find(&mut parent, j));
+                if ri != rj {
+                    parent[ri] = rj;
+                }
+            }
+        }
+    }
+    let mut groups: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
+    for &j in &modes {
+        let r = find(&mut parent, j);
+        groups.entry(r).or_default().push(j);
+    }
+    let mut starts = Vec::with_capacity(n);
+    for group in groups.values() {
+        if let [j] = group[..] {
+            let (w1, w2) = own(j);
+            if w1.im != 0.0 {
+                starts.push(PoleStart {
+                    w: w1,
+                    v: StartVector::Mode(j),
+                    complex: true,
+                });
+            } else {
+                for w in [w1, w2] {
+                    starts.push(PoleStart {
+                        w,
+                        v: StartVector::Mode(j),
+                        complex: false,
+                    });
+                }
+            }
+            continue;
+        }
+        // the quadratic problem projected on the group's modes: [[2I - Λ - C, -I + C], [I, 0]]
+        let k = group.len();
+        let sym = |a: usize, b: usize| 0.5 * (c[(group[a], group[b])] + c[(group[b], group[a])]);
+        let a = crate::matrices::state_matrix(
+            k,
+            |a, b| {
+                if a == b {
+                    lambda[group[a]] + sym(a, b)
+                } else {
+                    sym(a, b)
+                }
+            },
+            sym,
+        );
+        let eig = a.eigen().ok()?;
+        let u = eig.U();
+        for q in 0..2 * k {
+            let mu = eig.S()[q];
+            let complex = mu.im.abs() > 1e-14 * mu.norm();
+            if complex && mu.im < 0.0 {
+                continue;
+            }
+            let v: Vec<c64> = (0..phi.nrows())
+                .map(|i| {
+                    (0..k).fold(c64::new(0.0, 0.0), |s, b| {
+                        s + u[(b, q)] * phi[(i, group[b])]
+                    })
+                })
+                .collect();
+            if v.iter().any(|x| !(x.re.is_finite() && x.im.is_finite())) {
+                return None;
+            }
+            starts.push(PoleStart {
+                w: mu - 1.0,
+                v: StartVector::Given(v),
+                complex,
+            });
+        }
+    }
+    Some(starts)
+}
+
+/// Largest relative residual `‖T(z) v‖ / ((|w|² ‖M‖ + |w| ‖K + R‖ + ‖K‖) ‖v‖)` accepted for a
+/// refined pole.
+const POLE_RESIDUAL: f64 = 1e-9;
+
+/// A relative residual at the rounding level: the refinement stops there.
+const CONVERGED: f64 = 1e-14;
+
+/// Norms of `M`, `K + R` and `K` (largest absolute column sums) that scale the residual of
+/// `T(1 + w) = M w² + (K + R) w + K`.
+struct Scales {
+    nm: f64,
+    nkr: f64,
+    nk: f64,
+}
+
+impl Scales {
+    fn new(pat: &Pattern) -> Scales {
+        let cp = pat.col_ptr();
+        let abs_sum = |f: &dyn Fn(usize) -> f64| -> f64 {
+            (0..pat.n)
+                .map(|col| (cp[col]..cp[col + 1]).map(|p| f(p).abs()).sum::<f64>())
+                .fold(0.0, f64::max)
+        };
+        Scales {
+            nm: abs_sum(&|p| pat.m[p]),
+            nkr: abs_sum(&|p| pat.k[p] + pat.r[p]),
+            nk: abs_sum(&|p| pat.k[p]),
+        }
+    }
+
+    /// The relative residual of the pole `1 + w` with vector `v`.
+    fn residual(&self, pat: &Pattern, w: c64, v: &[c64]) -> f64 {
+        let (a, b, c) = products(pat, v);
+        self.relative(w, &a, &b, &c, v)
+    }
+
+    /// The relative residual from the products `(M v, (K + R) v, K v)`.
+    fn relative(&self, w: c64, mv: &[c64], krv: &[c64], kv: &[c64], v: &[c64]) -> f64 {
+        let tv = mv
+            .iter()
+            .zip(krv)
+            .zip(kv)
+            .map(|((a, b), c)| (w * w * *a + w * *b + *c).norm_sqr())
+            .sum::<f64>()
+            .sqrt();
+        let nv = v.iter().map(|x| x.norm_sqr()).sum::<f64>().sqrt();
+        tv / ((w.norm_sqr() * self.nm + w.norm() * self.nkr + self.nk) * nv)
+    }
+}
+
+/// Rayleigh-functional iteration on `T(1 + w) = M w² + (K + R) w + K`, in `w = z - 1` so that
+/// nothing cancels for poles near 1.
+struct Refiner<'a> {
+    pat: &'a Pattern,
+    solver: DynamicSolver<'a>,
+    vals: Vec<c64>,
+    tmp: Vec<c64>,
+    /// Sparse complex factorisations so far.
+    factorisations: usize,
+}
+
+impl<'a> Refiner<'a> {
+    fn new(pat: &'a Pattern, ldlt: &'a SymLdlt, symbolic: &'a SymbolicLu<usize>) -> Self {
+        Refiner {
+            pat,
+            solver: DynamicSolver::new(pat, ldlt, symbolic),
+            vals: vec![c64::new(0.0, 0.0); pat.k.len()],
+            tmp: vec![c64::new(0.0, 0.0); pat.n],
+            factorisations: 0,
+        }
+    }
+
+    /// Refines the estimate `w` (pole `1 + w`) and its vector `v` (normalised in place); returns
+    /// the refined `w`. Stops when the residual reaches the rounding level (checked at each
+    /// Rayleigh-functional update, at the cost of a product), or when a step no longer shrinks.
+    fn refine(&mut self, mut w: c64, v: &mut [c64], scales: &Scales) -> c64 {
+        let pat = self.pat;
+        let mut last_step = f64::INFINITY;
+        for it in 0..30 {
+            // Rayleigh functional: the root of vᵀ T(w) v = 0 nearest w (transposes, no conjugates:
+            // T is complex symmetric, so v is its left eigenvector too)
+            let (mv, krv, kv) = products(pat, v);
+            let wnew = nearest_root(dot(v, &mv), dot(v, &krv), dot(v, &kv), w);
+            let step = (wnew - w).norm();
+            w = wnew;
+            // after at least one inverse iteration: done when the residual is at rounding level
+            if it >= 1 && scales.relative(w, &mv, &krv, &kv, v) <= CONVERGED {
+                break;
+            }
+            if it >= 2 && (step <= 4.0 * f64::EPSILON * w.norm() || step >= last_step) {
+                break;
+            }
+            if it >= 1 {
+                last_step = step;
+            }
+            // inverse iteration: v ← A⁻¹ T'(w) v, T'(w) = 2 w M + K + R (A = T / (1 + w))
+            for (t, (m, kr)) in self.tmp.iter_mut().zip(mv.iter().zip(&krv)) {
+                *t = w * 2.0 * *m + *kr;
+            }
+            self.factorisations += 1;
+            pat.dynamic(w, &mut self.vals);
+            let Some(x) = self.solver.solve(&self.vals, &self.tmp) else {
+                break; // exactly singular: w is the pole
+            };
+            self.tmp.copy_from_slice(x);
+            let nv = self.tmp.iter().map(|x| x.norm_sqr()).sum::<f64>().sqrt();
+            if !(nv > 0.0 && nv.is_finite()) {
+                break;
+            }
+            for (vi, ti) in v.iter_mut().zip(&self.tmp) {
+                *vi = *ti / nv;
+            }
+        }
+        w
+    }
 }
 
 #[derive(Clone, Copy)]
@@ -1166,6 +1535,18 @@ struct SymLdlt {
 }
 
 impl SymLdlt {
+    /// An estimate of the flops of one numeric factorisation: `Σ width · height²` over the
+    /// supernodes.
+    fn flops(&self) -> f64 {
+        (0..self.begin.len() - 1)
+            .map(|s| {
+                let w = (self.begin[s + 1] - self.begin[s]) as f64;
+                let h = w + (self.rp[s + 1] - self.rp[s]) as f64;
+                w * h * h
+            })
+            .sum()
+    }
+
     fn new(pat: &Pattern) -> Result<SymLdlt, AnalysisError> {
         use faer::sparse::linalg::cholesky::{
             factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholeskyRaw,

@@ -77,11 +77,16 @@ fn peak(x: &[f64], guess: f64, fs: f64) -> f64 {
 fn check_against_render(text: &str, frames: usize, tol_hz: f64, expect_method: &str) {
     let m = load(text);
     let sys = LinearSystem::from_model(&m).unwrap();
-    let ma = ModalAnalysis::compute(&sys).unwrap();
+    let ma = if expect_method == "refined" {
+        ModalAnalysis::compute_refined(&sys).unwrap().unwrap()
+    } else {
+        ModalAnalysis::compute(&sys).unwrap()
+    };
     let method = match ma.method {
         Method::Undamped => "undamped",
         Method::Decoupled => "decoupled",
         Method::StateSpace { .. } => "state space",
+        Method::Refined { .. } => "refined",
     };
     assert_eq!(method, expect_method);
     let fs = m.rate;
@@ -394,4 +399,134 @@ fn undamped_modes_of_widely_spread_inertias_count_as_stable() {
         "{}",
         ma.max_radius
     );
+}
+
+/// A 300-mass string, damped unevenly (air damping growing along it, dampers to the ground at two
+/// points, a free end on a heavy mass): the damping couples the undamped modes.
+fn uneven_string(n: usize) -> String {
+    let mut t = format!(
+        "sol g\nstring s n={n} M=1 K=0.2 Z=1e-5 ends=fixed,free\nmas heavy M=40\nref end s[{}] heavy K=0.05\n",
+        n - 1
+    );
+    for i in (0..n).step_by(7) {
+        t += &format!("fro air{i} s[{i}] g Z={}\n", 1e-6 * (1.0 + i as f64 / 50.0));
+    }
+    t += &format!(
+        "fro d1 g s[{}] Z=3e-3\nfro d2 g s[{}] Z=1e-3\n",
+        n / 3,
+        2 * n / 3
+    );
+    t += &format!(
+        "enf hit s[3] signal=impulse(at=0, amp=1)\nsox o s[1] + 0.5*heavy\nsox p s[{}]\n",
+        n / 7
+    );
+    t
+}
+
+#[test]
+fn the_refined_poles_equal_the_dense_state_space_ones() {
+    let m = load(&uneven_string(300));
+    let sys = LinearSystem::from_model(&m).unwrap();
+    let refined = ModalAnalysis::compute_refined(&sys).unwrap().unwrap();
+    let Method::Refined { max_residual, .. } = refined.method else {
+        panic!("expected the refined method, got {:?}", refined.method)
+    };
+    assert!(max_residual < 1e-12, "{max_residual}");
+    let dense = ModalAnalysis::compute_state_space(&sys).unwrap();
+    assert_eq!(refined.modes.len(), sys.len());
+    assert_eq!(dense.modes.len(), refined.modes.len());
+    let loud = |ma: &ModalAnalysis, c: usize| {
+        ma.modes
+            .iter()
+            .map(|md| md.amplitudes[c])
+            .fold(0.0, f64::max)
+    };
+    for (a, b) in refined.modes.iter().zip(&dense.modes) {
+        assert_eq!(a.kind, b.kind);
+        assert!(
+            (a.freq_hz - b.freq_hz).abs() <= 1e-9 * m.rate,
+            "{a:?} vs {b:?}"
+        );
+        assert!(
+            (a.radius - b.radius).abs() <= 1e-12,
+            "{} vs {}",
+            a.radius,
+            b.radius
+        );
+        for c in 0..2 {
+            let (x, y) = (a.amplitudes[c], b.amplitudes[c]);
+            assert!(
+                (x - y).abs() <= 1e-7 * loud(&dense, c),
+                "{} Hz channel {c}: {x} vs {y}",
+                a.freq_hz
+            );
+        }
+    }
+    assert!((refined.max_radius - dense.max_radius).abs() < 1e-12);
+    // the receptances agree too (driving point at s[3], transfer to heavy)
+    let (hit, heavy) = (sys.dof("s[3]").unwrap(), sys.dof("heavy").unwrap());
+    // (relative to the driving point: far transfers at high frequency are at rounding level)
+    for f in [13.0, 110.0, 1234.5, 8000.0, 20000.0] {
+        let scale = dense.receptance(hit, hit, f, m.rate).norm();
+        for (x, y) in [(hit, hit), (hit, heavy)] {
+            let (p, q) = (
+                refined.receptance(x, y, f, m.rate),
+                dense.receptance(x, y, f, m.rate),
+            );
+            assert!((p - q).norm() <= 1e-8 * scale, "{f} Hz: {p:?} vs {q:?}");
+        }
+    }
+}
+
+#[test]
+fn a_long_unevenly_damped_string_rings_as_refined() {
+    check_against_render(&uneven_string(240), 1 << 17, 1e-3, "refined");
+}
+
+#[test]
+fn a_refined_network_with_a_free_floating_part_keeps_its_rigid_mode() {
+    // the string is fixed; a separate free pair of masses floats, damped internally
+    let mut text = uneven_string(250);
+    text += "mas fa M=1\nmas fb M=3\nref fl fa fb K=0.1 Z=1e-3\ninit fa X0=0.5\n";
+    let m = load(&text);
+    let sys = LinearSystem::from_model(&m).unwrap();
+    let ma = ModalAnalysis::compute_refined(&sys).unwrap().unwrap();
+    assert!(
+        matches!(ma.method, Method::Refined { .. }),
+        "{:?}",
+        ma.method
+    );
+    assert_eq!(ma.modes.len(), sys.len());
+    assert_eq!(
+        ma.modes
+            .iter()
+            .filter(|md| md.kind == ModeKind::Rigid)
+            .count(),
+        1
+    );
+    // the response of the free part includes its rigid motion: dense and refined agree
+    let dense = ModalAnalysis::compute_state_space(&sys).unwrap();
+    let (fa, fb) = (sys.dof("fa").unwrap(), sys.dof("fb").unwrap());
+    for f in [50.0, 500.0, 5000.0] {
+        let (p, q) = (
+            ma.receptance(fa, fb, f, m.rate),
+            dense.receptance(fa, fb, f, m.rate),
+        );
+        assert!((p - q).norm() <= 1e-6 * q.norm(), "{f} Hz: {p:?} vs {q:?}");
+    }
+}
+
+#[test]
+fn the_refined_method_declines_what_it_need_not_or_cannot_do() {
+    // decoupled damping: the closed forms are exact, nothing to refine
+    let m = load("string s n=10 M=1 K=0.1 Z=1e-4 ends=fixed,fixed\nsox o s[1]\n");
+    let sys = LinearSystem::from_model(&m).unwrap();
+    assert!(ModalAnalysis::compute_refined(&sys).unwrap().is_none());
+    // a small network with coupling damping: compute takes the dense state space
+    let m = load(&uneven_string(30));
+    let sys = LinearSystem::from_model(&m).unwrap();
+    assert!(matches!(
+        ModalAnalysis::compute(&sys).unwrap().method,
+        Method::StateSpace { .. }
+    ));
 }
