@@ -114,6 +114,8 @@ pub(crate) struct PanelDef<'a> {
     pub label: &'a str,
     /// Keep a band at the top for infinite values, labelled ∞.
     pub inf_band: bool,
+    /// Keep a strip above the panel for labels of its markers.
+    pub strip: bool,
 }
 
 /// A laid-out panel.
@@ -125,6 +127,8 @@ pub(crate) struct Panel {
     pub y: Scale,
     yt: Ticks,
     label: String,
+    /// The top of the strip of marker labels above the panel, if one was asked for.
+    pub strip_y: Option<f64>,
 }
 
 impl Panel {
@@ -167,8 +171,6 @@ pub(crate) struct Chart {
     x_label: String,
     pub panels: Vec<Panel>,
     title: Option<Title>,
-    /// The top of a strip of marker labels above the first panel, if one was asked for.
-    pub strip_y: Option<f64>,
 }
 
 /// The ticks of an axis: labelled values with their labels, and unlabelled values.
@@ -304,8 +306,9 @@ fn row(y: f64, r: &Rect) -> i64 {
 }
 
 impl Chart {
-    /// Lays out a `width` x `height` figure: the title, an optional strip of marker labels, the
-    /// panels from top to bottom, the shared horizontal axis `x` described by `x_label`.
+    /// Lays out a `width` x `height` figure: the title, the panels from top to bottom (each
+    /// with an optional strip of marker labels above it), the shared horizontal axis `x`
+    /// described by `x_label`.
     pub(crate) fn layout(
         width: u32,
         height: u32,
@@ -313,14 +316,14 @@ impl Chart {
         x: Scale,
         x_label: &str,
         defs: &[PanelDef<'_>],
-        strip: bool,
     ) -> Result<Chart, PlotError> {
         let (w, h) = (width as usize, height as usize);
         // 1200 x 700 is the reference size.
         let st = Style::new(w, h, 1200.0, 700.0)?;
         let title = Title::fit(title, w, &st)?;
         let title_h = title.as_ref().map_or(0.0, |t| t.height);
-        let strip_h = if strip { st.label_h + st.gap } else { 0.0 };
+        let strip_h = st.label_h + st.gap;
+        let first_strip = defs.first().is_some_and(|d| d.strip);
         let no_room = || {
             PlotError::Draw(format!(
                 "a {w} x {h} picture leaves no room for the plot beside its labels \
@@ -330,17 +333,31 @@ impl Chart {
 
         // Vertical layout first: panel heights fix the vertical ticks, whose label widths fix
         // the left margin.
-        let top = (st.pad + title_h + strip_h + st.label_h / 2.0).round();
+        let top =
+            (st.pad + title_h + if first_strip { strip_h } else { 0.0 } + st.label_h / 2.0).round();
         let bottom = (st.tick_len + st.gap + st.label_h + st.gap + st.desc_h + st.pad).round();
         let between = (st.label_h + 2.0 * st.gap).round();
         let n = defs.len().max(1) as f64;
-        let avail = h as f64 - top - bottom - between * (n - 1.0);
+        // Strips above the lower panels sit below the gap between panels.
+        let lower_strips = defs.iter().skip(1).filter(|d| d.strip).count() as f64;
+        let avail = h as f64 - top - bottom - between * (n - 1.0) - strip_h * lower_strips;
         let band = (2.0 * st.label_h).round();
         let total: f64 = defs.iter().map(|d| d.weight).sum();
         let mut y = top;
         let mut placed = Vec::with_capacity(defs.len());
         let mut widest = 0.0f64;
         for (i, d) in defs.iter().enumerate() {
+            let strip_y = match (d.strip, i) {
+                (false, _) => None,
+                (true, 0) => Some((st.pad + title_h).round()),
+                (true, _) => {
+                    // The strip follows the gap under the panel above; as above the first
+                    // panel, its text starts half a label above the strip.
+                    let strip_y = (y - st.label_h / 2.0).round();
+                    y += strip_h;
+                    Some(strip_y)
+                }
+            };
             let ph = if i + 1 == defs.len() {
                 h as f64 - bottom - y
             } else {
@@ -358,7 +375,7 @@ impl Chart {
             if d.inf_band {
                 widest = widest.max(st.label_w("\u{221e}")?);
             }
-            placed.push((y, ph, dh, yt, scale, d.label));
+            placed.push((y, ph, dh, yt, scale, d.label, strip_y));
             y += ph + between;
         }
         let left = (st.pad + st.desc_h + st.gap + widest + st.gap + st.tick_len).round();
@@ -381,7 +398,7 @@ impl Chart {
         let (x0, x1) = (left as i64, (left + pw) as i64);
         let panels = placed
             .into_iter()
-            .map(|(y, ph, dh, yt, scale, label)| {
+            .map(|(y, ph, dh, yt, scale, label, strip_y)| {
                 let (y0, y1) = (y as i64, (y + ph) as i64);
                 Panel {
                     rect: Rect { x0, y0, x1, y1 },
@@ -394,6 +411,7 @@ impl Chart {
                     y: scale,
                     yt,
                     label: label.to_string(),
+                    strip_y,
                 }
             })
             .collect();
@@ -406,7 +424,6 @@ impl Chart {
             x_label: x_label.to_string(),
             panels,
             title,
-            strip_y: strip.then_some((st.pad + title_h).round()),
         })
     }
 

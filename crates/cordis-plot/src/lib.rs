@@ -1,6 +1,6 @@
 //! # cordis-plot: pictures of renders
 //!
-//! Three figures, each written as a PNG:
+//! Four figures, each written as a PNG:
 //!
 //! - Spectrograms of rendered audio, as numbers ([`spectrogram`]) or as a figure
 //!   ([`spectrogram_png`]) with a time axis in seconds, a linear or logarithmic frequency axis in
@@ -8,6 +8,8 @@
 //!   and a labelled dB colour bar.
 //! - Mode plots ([`modes_png`]): the prediction and the sound seen together, the spectrum of a
 //!   render (see [`spectrum`]) with a marker at each predicted mode, above each mode's T60.
+//! - Comparison plots ([`compare_png`]): spectra one above the other on one frequency axis, each
+//!   with its own modes marked, such as a recording above the model designed from it.
 //! - Response plots ([`response_png`]): magnitude and phase of one or more frequency responses
 //!   over a logarithmic frequency axis (a Bode plot), with a legend.
 //!
@@ -38,6 +40,7 @@
 mod canvas;
 mod chart;
 mod colormap;
+mod compare;
 mod draw;
 mod figure;
 mod modes;
@@ -45,6 +48,7 @@ mod response;
 mod stft;
 mod ticks;
 
+pub use compare::{compare_png, ComparePanel};
 pub use modes::{modes_png, spectrum, ModeMark, ModesPlotOptions, Spectrum};
 pub use response::{response_png, ResponseCurve, ResponsePlotOptions};
 

@@ -38,7 +38,8 @@ pub struct ModeMark {
     pub label: Option<String>,
 }
 
-/// How to draw [`modes_png`]. Start from [`Default`] and change what you need.
+/// How to draw [`modes_png`] and [`crate::compare_png`]. Start from [`Default`] and change what
+/// you need.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ModesPlotOptions {
     /// Lowest frequency shown, in Hz. Default: the spectrum's first frequency on a linear axis;
@@ -98,22 +99,24 @@ pub fn spectrum(samples: &[f64], rate: f64, window: usize) -> Result<Spectrum, P
     Ok(stft::average(samples, rate, window))
 }
 
+/// The points of a spectrum shown over a frequency range.
+pub(crate) struct Shown {
+    /// Indices of the spectrum points drawn (with one beyond each end of the range).
+    pub first: usize,
+    pub last: usize,
+    /// The top of the level axis: the loudest point shown.
+    pub top: f64,
+}
+
 /// The checked inputs of a mode figure.
 struct Plan {
     min: f64,
     max: f64,
-    /// Indices of the spectrum points drawn (with one beyond each end of the range).
-    first: usize,
-    last: usize,
-    /// The top of the level axis: the loudest point shown.
-    top: f64,
+    shown: Shown,
 }
 
-fn plan(
-    spectrum: &Spectrum,
-    modes: &[ModeMark],
-    opts: &ModesPlotOptions,
-) -> Result<Plan, PlotError> {
+/// Checks the options shared by the mode and comparison figures: the size and the dB range.
+pub(crate) fn check_options(opts: &ModesPlotOptions) -> Result<(), PlotError> {
     check_size(opts.width, opts.height)?;
     if !(opts.db_range.is_finite() && opts.db_range > 0.0) {
         return Err(bad(format!(
@@ -121,6 +124,11 @@ fn plan(
             opts.db_range
         )));
     }
+    Ok(())
+}
+
+/// Checks a spectrum to draw: points, one level per frequency, finite, increasing frequencies.
+pub(crate) fn check_spectrum(spectrum: &Spectrum) -> Result<(), PlotError> {
     let Spectrum { freqs_hz: f, db } = spectrum;
     if f.is_empty() && db.is_empty() {
         return Err(PlotError::Empty);
@@ -149,6 +157,11 @@ fn plan(
             f[i + 1]
         )));
     }
+    Ok(())
+}
+
+/// Checks modes to mark: finite frequencies of 0 Hz or more, T60s above 0 s (or infinite).
+pub(crate) fn check_modes(modes: &[ModeMark]) -> Result<(), PlotError> {
     for (index, m) in modes.iter().enumerate() {
         if !m.freq_hz.is_finite() {
             return Err(PlotError::NonFinite {
@@ -176,8 +189,18 @@ fn plan(
             )));
         }
     }
+    Ok(())
+}
 
-    let (f_first, f_last) = (f[0], f[f.len() - 1]);
+/// The frequency range shown, `(min, max)`: the options' bounds, or else spectra running from
+/// `f_first` to `f_last` Hz with modes as low as `lowest_mode` Hz (above 0 Hz; infinity for
+/// none) shown whole.
+pub(crate) fn freq_range(
+    f_first: f64,
+    f_last: f64,
+    lowest_mode: f64,
+    opts: &ModesPlotOptions,
+) -> Result<(f64, f64), PlotError> {
     let max = opts.max_freq.unwrap_or(f_last);
     if !(max.is_finite() && max > 0.0) {
         return Err(bad(format!(
@@ -187,24 +210,39 @@ fn plan(
     }
     let min = match opts.min_freq {
         Some(m) => m,
-        None if opts.log_freq => {
-            let lowest_mode = modes
-                .iter()
-                .map(|m| m.freq_hz)
-                .filter(|&m| m > 0.0)
-                .fold(f64::INFINITY, f64::min);
-            20f64.min(max / 10.0).min(lowest_mode / 1.25)
-        }
+        None if opts.log_freq => 20f64.min(max / 10.0).min(lowest_mode / 1.25),
         None => f_first.min(max / 2.0),
     };
     crate::check_freq_range(min, max, opts.log_freq)?;
+    Ok((min, max))
+}
+
+/// The lowest frequency above 0 Hz of `modes`, or infinity.
+pub(crate) fn lowest_mode(modes: &[ModeMark]) -> f64 {
+    modes
+        .iter()
+        .map(|m| m.freq_hz)
+        .filter(|&m| m > 0.0)
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The points of a checked `spectrum` shown between `min` and `max` Hz.
+pub(crate) fn shown_points(
+    spectrum: &Spectrum,
+    min: f64,
+    max: f64,
+    log: bool,
+) -> Result<Shown, PlotError> {
+    let Spectrum { freqs_hz: f, db } = spectrum;
     let inside: Vec<usize> = (0..f.len())
         .filter(|&i| f[i] >= min && f[i] <= max)
         .collect();
     let (Some(&a), Some(&b)) = (inside.first(), inside.last()) else {
         return Err(bad(format!(
-            "no point of the spectrum ({f_first} to {f_last} Hz) lies between min_freq {min} Hz \
-             and max_freq {max} Hz"
+            "no point of the spectrum ({} to {} Hz) lies between min_freq {min} Hz \
+             and max_freq {max} Hz",
+            f[0],
+            f[f.len() - 1]
         )));
     };
     let top = inside
@@ -213,19 +251,27 @@ fn plan(
         .fold(f64::NEG_INFINITY, f64::max);
     // One point beyond each end, so that the line runs to the edges (a log axis cannot show
     // 0 Hz).
-    let first = if a > 0 && (!opts.log_freq || f[a - 1] > 0.0) {
+    let first = if a > 0 && (!log || f[a - 1] > 0.0) {
         a - 1
     } else {
         a
     };
     let last = (b + 1).min(f.len() - 1);
-    Ok(Plan {
-        min,
-        max,
-        first,
-        last,
-        top,
-    })
+    Ok(Shown { first, last, top })
+}
+
+fn plan(
+    spectrum: &Spectrum,
+    modes: &[ModeMark],
+    opts: &ModesPlotOptions,
+) -> Result<Plan, PlotError> {
+    check_options(opts)?;
+    check_spectrum(spectrum)?;
+    check_modes(modes)?;
+    let f = &spectrum.freqs_hz;
+    let (min, max) = freq_range(f[0], f[f.len() - 1], lowest_mode(modes), opts)?;
+    let shown = shown_points(spectrum, min, max, opts.log_freq)?;
+    Ok(Plan { min, max, shown })
 }
 
 /// Draws "the prediction and the sound seen together" as a PNG of `opts.width` x
@@ -267,11 +313,7 @@ fn draw(
         hi: plan.max,
         log: opts.log_freq,
     };
-    let mut shown: Vec<&ModeMark> = modes
-        .iter()
-        .filter(|m| m.freq_hz >= plan.min && m.freq_hz <= plan.max)
-        .collect();
-    shown.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+    let shown = modes_shown(modes, plan.min, plan.max);
     let finite: Vec<f64> = shown
         .iter()
         .map(|m| m.t60_s)
@@ -294,10 +336,6 @@ fn draw(
         }
     };
     let range = opts.db_range;
-    let db_lo = plan.top - range;
-    let labelled = shown
-        .iter()
-        .any(|m| m.label.as_deref().is_some_and(|l| !l.trim().is_empty()));
     let chart = Chart::layout(
         opts.width,
         opts.height,
@@ -307,48 +345,33 @@ fn draw(
         &[
             PanelDef {
                 weight: 0.62,
-                y: YAxis::Linear {
-                    lo: db_lo,
-                    hi: plan.top + 0.05 * range,
-                },
+                y: level_axis(plan.shown.top, range),
                 label: "level (dB)",
                 inf_band: false,
+                strip: labelled(&shown),
             },
             PanelDef {
                 weight: 0.38,
                 y: t_axis,
                 label: "T60 (s)",
                 inf_band: undamped,
+                strip: false,
             },
         ],
-        labelled,
     )?;
     let mut c = chart.canvas();
     chart.draw_axes(&mut c)?;
     let st = chart.st;
-    let (top, bottom) = (&chart.panels[0], &chart.panels[1]);
+    let bottom = &chart.panels[1];
 
-    // Markers first, so that the spectrum stays readable over them.
-    let mw = marker_width(&st);
-    let cols: Vec<i64> = shown
-        .iter()
-        .map(|m| column(chart.x_px(m.freq_hz), &top.rect))
-        .collect();
-    for &col in &cols {
-        let x0 = (col - (mw - 1) / 2).clamp(top.rect.x0, top.rect.x1 - mw);
-        c.fill_rect(x0, top.rect.y0, x0 + mw, top.rect.y1, MODE);
-    }
-    let points: Vec<(f64, f64)> = (plan.first..=plan.last)
-        .map(|i| {
-            (
-                chart.x_px(spectrum.freqs_hz[i]),
-                top.y_px(spectrum.db[i].max(db_lo)),
-            )
-        })
-        .collect();
-    let mut layer = top.rect.layer();
-    layer.polyline(&decimate(&points), line_width(&st));
-    layer.paint(&mut c, SPECTRUM);
+    let top = SpectrumPanel {
+        spectrum,
+        points: &plan.shown,
+        modes: &shown,
+        line: SPECTRUM,
+        mark: MODE,
+    };
+    let cols = top.draw(&mut c, &chart, 0)?;
 
     // Decay times.
     let mut stems = bottom.rect.layer();
@@ -382,38 +405,7 @@ fn draw(
         )?;
     }
 
-    // Mode labels above the plot, skipping any that would overlap the one before.
-    if let Some(y) = chart.strip_y {
-        let mut free_from = st.pad;
-        let right_edge = c.width as f64 - st.pad;
-        for (m, &col) in shown.iter().zip(&cols) {
-            let Some(label) = m.label.as_deref().map(str::trim).filter(|l| !l.is_empty()) else {
-                continue;
-            };
-            let (lw, _) = measure(label, st.tick_size)?;
-            let lw = lw as f64;
-            let x = (col as f64 + 0.5 - lw / 2.0).max(st.pad);
-            if x < free_from || x + lw > right_edge {
-                continue;
-            }
-            c.text(label, st.tick_size, x, y, HAlign::Left, VAlign::Top, false)?;
-            free_from = x + lw + st.gap;
-        }
-    }
-
-    let mut entries = vec![Entry {
-        label: "spectrum".into(),
-        colour: SPECTRUM,
-        swatch: Swatch::Line,
-    }];
-    if !shown.is_empty() {
-        entries.push(Entry {
-            label: "predicted mode".into(),
-            colour: MODE,
-            swatch: Swatch::Marker,
-        });
-    }
-    chart.legend(&mut c, 0, &entries)?;
+    chart.legend(&mut c, 0, &top.entries("spectrum", "predicted mode"))?;
     if undamped {
         let entries = [Entry {
             label: "undamped (T60 = \u{221e})".into(),
@@ -423,4 +415,117 @@ fn draw(
         chart.legend(&mut c, 1, &entries)?;
     }
     Ok(c)
+}
+
+/// The modes of `modes` between `min` and `max` Hz, by increasing frequency.
+pub(crate) fn modes_shown(modes: &[ModeMark], min: f64, max: f64) -> Vec<&ModeMark> {
+    let mut shown: Vec<&ModeMark> = modes
+        .iter()
+        .filter(|m| m.freq_hz >= min && m.freq_hz <= max)
+        .collect();
+    shown.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+    shown
+}
+
+/// Whether any of `modes` has a label to write.
+pub(crate) fn labelled(modes: &[&ModeMark]) -> bool {
+    modes.iter().any(|m| label(m).is_some())
+}
+
+fn label(m: &ModeMark) -> Option<&str> {
+    m.label.as_deref().map(str::trim).filter(|l| !l.is_empty())
+}
+
+/// The level axis of a spectrum panel: `range` dB below the loudest point shown, `top`, with
+/// a little room above it.
+pub(crate) fn level_axis(top: f64, range: f64) -> YAxis {
+    YAxis::Linear {
+        lo: top - range,
+        hi: top + 0.05 * range,
+    }
+}
+
+/// A spectrum with modes marked on it, drawn in a panel whose axis is [`level_axis`].
+pub(crate) struct SpectrumPanel<'a> {
+    pub spectrum: &'a Spectrum,
+    pub points: &'a Shown,
+    /// The modes in the frequency range, by increasing frequency (see [`modes_shown`]).
+    pub modes: &'a [&'a ModeMark],
+    /// Colours of the spectrum line and of the mode markers.
+    pub line: [u8; 3],
+    pub mark: [u8; 3],
+}
+
+impl SpectrumPanel<'_> {
+    /// Draws into panel `panel` of `chart` a vertical marker at each mode, the spectrum line over
+    /// them (levels below the axis sit on the bottom edge), and the labels of the modes in the
+    /// panel's strip, skipping any that would overlap the one before. Returns the pixel column
+    /// of each mode.
+    pub(crate) fn draw(
+        &self,
+        c: &mut Canvas,
+        chart: &Chart,
+        panel: usize,
+    ) -> Result<Vec<i64>, PlotError> {
+        let st = chart.st;
+        let Some(p) = chart.panels.get(panel) else {
+            return Ok(Vec::new());
+        };
+        // Markers first, so that the spectrum stays readable over them.
+        let mw = marker_width(&st);
+        let cols: Vec<i64> = self
+            .modes
+            .iter()
+            .map(|m| column(chart.x_px(m.freq_hz), &p.rect))
+            .collect();
+        for &col in &cols {
+            let x0 = (col - (mw - 1) / 2).clamp(p.rect.x0, p.rect.x1 - mw);
+            c.fill_rect(x0, p.rect.y0, x0 + mw, p.rect.y1, self.mark);
+        }
+        let floor = p.y.lo;
+        let (f, db) = (&self.spectrum.freqs_hz, &self.spectrum.db);
+        let points: Vec<(f64, f64)> = (self.points.first..=self.points.last)
+            .map(|i| (chart.x_px(f[i]), p.y_px(db[i].max(floor))))
+            .collect();
+        let mut layer = p.rect.layer();
+        layer.polyline(&decimate(&points), line_width(&st));
+        layer.paint(c, self.line);
+
+        if let Some(y) = p.strip_y {
+            let mut free_from = st.pad;
+            let right_edge = c.width as f64 - st.pad;
+            for (m, &col) in self.modes.iter().zip(&cols) {
+                let Some(label) = label(m) else {
+                    continue;
+                };
+                let (lw, _) = measure(label, st.tick_size)?;
+                let lw = lw as f64;
+                let x = (col as f64 + 0.5 - lw / 2.0).max(st.pad);
+                if x < free_from || x + lw > right_edge {
+                    continue;
+                }
+                c.text(label, st.tick_size, x, y, HAlign::Left, VAlign::Top, false)?;
+                free_from = x + lw + st.gap;
+            }
+        }
+        Ok(cols)
+    }
+
+    /// Legend entries: the spectrum line as `line_label`, and the markers as `mark_label` when
+    /// any mode is shown.
+    pub(crate) fn entries(&self, line_label: &str, mark_label: &str) -> Vec<Entry> {
+        let mut entries = vec![Entry {
+            label: line_label.into(),
+            colour: self.line,
+            swatch: Swatch::Line,
+        }];
+        if !self.modes.is_empty() {
+            entries.push(Entry {
+                label: mark_label.into(),
+                colour: self.mark,
+                swatch: Swatch::Marker,
+            });
+        }
+        entries
+    }
 }

@@ -219,15 +219,16 @@ fn draw(resp: &ResponseCurve, opts: &ResponsePlotOptions) -> Result<Canvas, Plot
                 y: level,
                 label: "level (dB)",
                 inf_band: false,
+                strip: false,
             },
             PanelDef {
                 weight: 0.45,
                 y: YAxis::Phase,
                 label: "phase (deg)",
                 inf_band: false,
+                strip: false,
             },
         ],
-        false,
     )?;
     let mut c = chart.canvas();
     chart.draw_axes(&mut c)?;
