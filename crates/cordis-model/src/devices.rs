@@ -18,7 +18,8 @@ use cordis_core::{Curve, Interaction, LinkId, MatId, Material};
 
 use crate::error::{Diagnostic, ErrorKind, Span};
 use crate::eval::Kind;
-use crate::model::{Builder, Entity, Params, R};
+use crate::model::{Builder, Params, R};
+use crate::names::Decl;
 use crate::syntax::Ref;
 
 /// Simple or complete sticking device.
@@ -266,7 +267,7 @@ impl Builder<'_> {
             (None, None) => f64::INFINITY,
         };
         let z1 = sp.z1.unwrap_or_else(|| critical_z1(sp.k_l, m));
-        self.declare(name.clone(), Entity::Group("sticking device"), span)?;
+        self.declare(name.clone(), Decl::Group("sticking device"), span)?;
         let l = self.add_stick(&name, a, b, &sp, z1, span)?;
         self.push_device(Device {
             name,
@@ -321,7 +322,7 @@ impl Builder<'_> {
         )?;
         p.finish("`bond`")?;
         let z1 = sp.z1.unwrap_or_else(|| critical_z1(sp.k_l, m_c));
-        self.declare(name.clone(), Entity::Group("sticking device"), span)?;
+        self.declare(name.clone(), Decl::Group("sticking device"), span)?;
         let mc1 = self.add_mat(
             format!("{name}.MC1"),
             Material::Mas {

@@ -29,6 +29,7 @@ mod devices;
 mod error;
 pub mod eval;
 mod model;
+mod names;
 mod observe;
 mod signals;
 pub use signals::read_wav_channel;

@@ -1,5 +1,7 @@
 //! Stages 2 and 3, resolve and validate: statements → a checked [`Model`] with a named network.
 
+use std::borrow::Cow;
+use std::cell::OnceCell;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -9,6 +11,7 @@ use cordis_core::{Curve, Engine, Interaction, LinkId, MatId, Material, Network, 
 use crate::devices::{Activity, Device, Tracked};
 use crate::error::{did_you_mean, Diagnostic, ErrorKind, LoadError, Severity, Span};
 use crate::eval::{Env, Kind, Value};
+use crate::names::{Decl, Entity, Names, MAX_INDEX};
 use crate::signals;
 use crate::syntax::{self, Expr, ExprKind, Param, Ref, Statement, Word};
 
@@ -114,7 +117,8 @@ impl Model {
 /// Loads a model file: parse, resolve, validate.
 pub fn load_file(path: &Path, opts: &Options) -> Result<Model, LoadError> {
     match std::fs::read_to_string(path) {
-        Ok(text) => load_str(path, &text, opts),
+        // one copy of the text while loading: the file's string is dropped once copied
+        Ok(text) => load_source(path, Arc::from(text), opts),
         Err(e) => Err(LoadError {
             path: path.to_path_buf(),
             source: Arc::from(""),
@@ -129,33 +133,62 @@ pub fn load_file(path: &Path, opts: &Options) -> Result<Model, LoadError> {
 }
 
 /// Loads a model from text; `path` names it in messages and anchors relative signal-file paths.
+///
+/// The text is read a line at a time: each statement is parsed, resolved and dropped before the
+/// next line is read, so no syntax tree of the whole file is ever held (a model of 100,000
+/// modules would need hundreds of megabytes for it). A first, cheap pass reads only the first
+/// word of every line: to find the `rate` (every unit depends on it) and to count the modules of
+/// each kind, so that the network and its names are allocated once, at their final size. As
+/// before, a file with syntax errors reports those only.
 pub fn load_str(path: &Path, text: &str, opts: &Options) -> Result<Model, LoadError> {
-    let source: Arc<str> = Arc::from(text);
-    let (stmts, mut diags) = syntax::parse(text);
-    let mut b = Builder::new(path, opts);
-    if diags.is_empty() {
-        b.run(&stmts);
-        diags.append(&mut b.diags);
+    load_source(path, Arc::from(text), opts)
+}
+
+fn load_source(path: &Path, source: Arc<str>, opts: &Options) -> Result<Model, LoadError> {
+    let text: &str = &source;
+    let mut b = Builder::new(path, opts, text);
+    b.begin();
+    let mut syntax_errors = Vec::new();
+    let mut parser = syntax::LineParser::new();
+    for (n, base, line) in syntax::lines(text) {
+        match parser.parse_line(line, base, n) {
+            Some(Ok(s)) if syntax_errors.is_empty() => b.statement(&s),
+            Some(Err(e)) => syntax_errors.push(e),
+            _ => {}
+        }
     }
+    let mut diags = if syntax_errors.is_empty() {
+        b.finish();
+        std::mem::take(&mut b.diags)
+    } else {
+        syntax_errors
+    };
     let has_errors = diags.iter().any(|d| d.severity == Severity::Error);
     diags.sort_by_key(|d| (d.severity != Severity::Error, d.span.map_or(0, |s| s.start)));
     if has_errors {
         return Err(LoadError {
             path: path.to_path_buf(),
-            source,
+            source: Arc::clone(&source),
             diagnostics: diags,
         });
     }
+    let mut net = b.net;
+    net.materials.shrink_to_fit();
+    net.links.shrink_to_fit();
+    net.forces.shrink_to_fit();
+    net.outputs.shrink_to_fit();
+    let mut names = b.names;
+    names.shrink_lists();
     Ok(Model {
         path: path.to_path_buf(),
-        source,
+        source: Arc::clone(&source),
         rate: b.fs,
         duration: b.duration,
-        network: b.net,
-        materials: b.mat_names,
-        links: b.link_names,
-        forces: b.force_names,
-        outputs: b.output_names,
+        network: net,
+        materials: names.materials,
+        links: names.links,
+        forces: names.forces,
+        outputs: names.outputs,
         devices: b.devices,
         tracked: {
             let mut t = b.tracked;
@@ -166,51 +199,83 @@ pub fn load_str(path: &Path, text: &str, opts: &Options) -> Result<Model, LoadEr
     })
 }
 
-#[derive(Clone, Copy, Debug)]
-pub(crate) enum Entity {
-    Mat(MatId),
-    Link(LinkId),
-    Force,
-    Output,
-    Group(&'static str),
-}
-
 pub(crate) struct Builder<'a> {
     pub(crate) path: &'a Path,
     pub(crate) opts: &'a Options,
+    /// The whole model text (read again only to say where a name used too early is declared).
+    text: &'a str,
     pub(crate) fs: f64,
     pub(crate) duration: u64,
     pub(crate) env: Env,
     pub(crate) net: Network,
-    pub(crate) names: HashMap<String, (Entity, Span)>,
-    pub(crate) mat_names: Vec<Named>,
-    pub(crate) link_names: Vec<Named>,
-    pub(crate) force_names: Vec<Named>,
-    pub(crate) output_names: Vec<Named>,
+    pub(crate) names: Names,
     pub(crate) diags: Vec<Diagnostic>,
     pub(crate) set_used: Vec<bool>,
     /// Names whose declaration failed: references to them are not reported again.
     pub(crate) poisoned: std::collections::HashSet<String>,
-    /// Every name a statement declares, with its line (to say "declared later").
-    pub(crate) declared_at: HashMap<String, usize>,
+    /// Every name a statement declares, with its first line (to say "declared later"): built
+    /// from the text the first time a name is not found.
+    declared_at: OnceCell<HashMap<String, usize>>,
+    /// The line of the first `duration`.
+    duration_set: Option<usize>,
+    /// Set when resolving stops (the rate is wrong, or too many errors).
+    stopped: bool,
     pub(crate) devices: Vec<Device>,
     pub(crate) tracked: Vec<Tracked>,
 }
 
 /// The parameters of one statement, taken one by one; what is left over is reported.
+///
+/// Nothing here allocates for a statement of up to 64 parameters whose code asks for up to 16
+/// keys: it is made for every statement of the file.
 pub(crate) struct Params<'p> {
     pub(crate) list: &'p [Param],
-    used: Vec<bool>,
-    accepted: Vec<&'static str>,
+    /// Which parameters were taken: bit `i` for the first 64, then `used_more[i - 64]`.
+    used: u64,
+    used_more: Vec<bool>,
+    /// The keys asked for, in order (for the hint): the first 16 here, the others in
+    /// `accepted_more`.
+    accepted: [&'static str; 16],
+    n_accepted: usize,
+    accepted_more: Vec<&'static str>,
 }
 
 impl<'p> Params<'p> {
     fn new(list: &'p [Param]) -> Params<'p> {
         Params {
             list,
-            used: vec![false; list.len()],
-            accepted: Vec::new(),
+            used: 0,
+            used_more: vec![false; list.len().saturating_sub(64)],
+            accepted: [""; 16],
+            n_accepted: 0,
+            accepted_more: Vec::new(),
         }
+    }
+
+    fn is_used(&self, i: usize) -> bool {
+        match i.checked_sub(64) {
+            None => self.used & (1 << i) != 0,
+            Some(j) => self.used_more.get(j).copied().unwrap_or(false),
+        }
+    }
+
+    fn set_used(&mut self, i: usize) {
+        match i.checked_sub(64) {
+            None => self.used |= 1 << i,
+            Some(j) => {
+                if let Some(u) = self.used_more.get_mut(j) {
+                    *u = true;
+                }
+            }
+        }
+    }
+
+    /// The keys asked for so far, in order.
+    fn accepted(&self) -> Vec<&'static str> {
+        let n = self.n_accepted.min(self.accepted.len());
+        let mut all = self.accepted[..n].to_vec();
+        all.extend_from_slice(&self.accepted_more);
+        all
     }
 
     /// The value of `key` (case-insensitive; `aliases` are other accepted spellings).
@@ -219,7 +284,13 @@ impl<'p> Params<'p> {
         key: &'static str,
         aliases: &[&'static str],
     ) -> Result<Option<&'p Param>, Diagnostic> {
-        self.accepted.push(key);
+        match self.accepted.get_mut(self.n_accepted) {
+            Some(slot) => {
+                *slot = key;
+                self.n_accepted += 1;
+            }
+            None => self.accepted_more.push(key),
+        }
         let mut found: Option<&'p Param> = None;
         for (i, p) in self.list.iter().enumerate() {
             let k = p.key.text.as_str();
@@ -234,7 +305,7 @@ impl<'p> Params<'p> {
                         ),
                     ));
                 }
-                self.used[i] = true;
+                self.set_used(i);
                 found = Some(p);
             }
         }
@@ -243,29 +314,38 @@ impl<'p> Params<'p> {
 
     /// Reports the parameters nobody took.
     pub(crate) fn finish(&self, what: &str) -> Result<(), Diagnostic> {
-        for (i, p) in self.list.iter().enumerate() {
-            if !self.used[i] {
-                let hint = did_you_mean(&p.key.text, self.accepted.iter().copied())
-                    .unwrap_or_else(|| format!("{what} takes: {}", self.accepted.join(", ")));
-                return Err(Diagnostic::error(
-                    ErrorKind::UnknownParameter,
-                    p.key.span,
-                    format!("{what} has no parameter `{}`", p.key.text),
-                )
-                .with_hint(hint));
-            }
-        }
-        Ok(())
+        self.finish_with(|| what.to_string())
+    }
+
+    /// [`Params::finish`] for a statement whose name in messages is made only when needed.
+    fn finish_with(&self, what: impl FnOnce() -> String) -> Result<(), Diagnostic> {
+        let Some(p) = (0..self.list.len())
+            .find(|&i| !self.is_used(i))
+            .map(|i| &self.list[i])
+        else {
+            return Ok(());
+        };
+        let what = what();
+        let accepted = self.accepted();
+        let hint = did_you_mean(&p.key.text, accepted.iter().copied())
+            .unwrap_or_else(|| format!("{what} takes: {}", accepted.join(", ")));
+        Err(Diagnostic::error(
+            ErrorKind::UnknownParameter,
+            p.key.span,
+            format!("{what} has no parameter `{}`", p.key.text),
+        )
+        .with_hint(hint))
     }
 }
 
 pub(crate) type R<T> = Result<T, Diagnostic>;
 
 impl<'a> Builder<'a> {
-    fn new(path: &'a Path, opts: &'a Options) -> Builder<'a> {
+    fn new(path: &'a Path, opts: &'a Options, text: &'a str) -> Builder<'a> {
         Builder {
             path,
             opts,
+            text,
             fs: 44100.0,
             duration: 44100,
             env: Env {
@@ -274,15 +354,13 @@ impl<'a> Builder<'a> {
                 failed: Default::default(),
             },
             net: Network::new(),
-            names: HashMap::new(),
-            mat_names: Vec::new(),
-            link_names: Vec::new(),
-            force_names: Vec::new(),
-            output_names: Vec::new(),
+            names: Names::new(),
             diags: Vec::new(),
             set_used: vec![false; opts.sets.len()],
             poisoned: Default::default(),
-            declared_at: HashMap::new(),
+            declared_at: OnceCell::new(),
+            duration_set: None,
+            stopped: false,
             devices: Vec::new(),
             tracked: Vec::new(),
         }
@@ -293,72 +371,120 @@ impl<'a> Builder<'a> {
             .push(Diagnostic::error(kind, None, msg).with_hint_opt(hint));
     }
 
-    fn run(&mut self, stmts: &[Statement]) {
-        // The rate first: every unit conversion depends on it.
-        if let Err(e) = self.resolve_rate(stmts) {
+    /// Before the statements: the rate (every unit conversion depends on it), and room for the
+    /// modules the text declares one per line (generators make room for theirs).
+    fn begin(&mut self) {
+        let mut rates = Vec::new();
+        let mut parser = syntax::LineParser::new();
+        let (mut mats, mut links, mut forces, mut outputs) = (0usize, 0usize, 0usize, 0usize);
+        for (n, base, line) in syntax::lines(self.text) {
+            let word = syntax::first_word(line);
+            if word.len() != 3 && word.len() != 4 {
+                continue;
+            }
+            let mut lower = [0u8; 4];
+            for (l, c) in lower.iter_mut().zip(word.bytes()) {
+                *l = c.to_ascii_lowercase();
+            }
+            match &lower[..word.len()] {
+                b"mas" | b"sol" | b"cel" | b"enx" => mats += 1,
+                b"res" | b"fro" | b"ref" | b"but" | b"lnl" => links += 1,
+                b"enf" => forces += 1,
+                b"sox" | b"sof" => outputs += 1,
+                b"rate" => {
+                    // a line that does not parse is reported by the main pass, which then
+                    // reports nothing else
+                    if let Some(Ok(s)) = parser.parse_line(line, base, n) {
+                        rates.push(s);
+                    }
+                }
+                _ => {}
+            }
+        }
+        if let Err(e) = self.resolve_rate(&rates) {
             self.diags.push(e);
+            self.stopped = true;
             return;
         }
-        for s in stmts {
-            if let Some((w, span)) = declared_name(s) {
-                self.declared_at.entry(w.text.clone()).or_insert(span.line);
-            }
+        // the limit bounds what a text can make us allocate; past it, loading fails anyway
+        let max = self.opts.limits.max_modules;
+        if mats + links + forces + outputs <= max {
+            self.net.materials.reserve_exact(mats);
+            self.names.materials.reserve_exact(mats);
+            self.net.links.reserve_exact(links);
+            self.names.links.reserve_exact(links);
+            self.net.forces.reserve_exact(forces);
+            self.names.forces.reserve_exact(forces);
+            self.net.outputs.reserve_exact(outputs);
+            self.names.outputs.reserve_exact(outputs);
+            self.names.reserve(mats + links + forces + outputs);
         }
-        let mut duration_set: Option<usize> = None;
-        for s in stmts {
-            let r = match s {
-                Statement::Let { name, value, .. } => self.let_stmt(name, value),
-                Statement::Setting {
-                    keyword,
-                    value,
-                    span,
-                } if keyword.text == "duration" => {
-                    if let Some(first) = duration_set {
-                        self.diags.push(Diagnostic::error(
-                            ErrorKind::DuplicateName,
-                            *span,
-                            format!("`duration` is set twice (first at line {first})"),
-                        ));
-                        continue;
-                    }
-                    duration_set = Some(span.line);
-                    if self.opts.duration.is_none() {
-                        self.env
-                            .number(value, Kind::Time, "duration")
-                            .and_then(|d| self.set_duration(d, value.span.into()))
-                    } else {
-                        Ok(())
-                    }
-                }
-                Statement::Setting { .. } => Ok(()), // rate: done
-                Statement::Module {
-                    keyword,
-                    refs,
-                    params,
-                    span,
-                } => self.module(keyword, refs, params, *span),
-                Statement::Probe {
-                    keyword,
-                    name,
-                    terms,
-                    params,
-                    span,
-                } => self.probe(keyword, name, terms, params, *span),
-            };
-            if let Err(e) = r {
-                if let Some((w, _)) = declared_name(s) {
-                    if !self.names.contains_key(&w.text) {
-                        self.poisoned.insert(w.text.clone());
-                    }
-                }
-                if e.message.is_empty() {
-                    continue; // a reference to a module whose declaration already failed
-                }
-                self.diags.push(e);
-                if self.diags.len() >= 50 {
+    }
+
+    /// Resolves one statement, in file order.
+    fn statement(&mut self, s: &Statement) {
+        if self.stopped {
+            return;
+        }
+        let r = match s {
+            Statement::Let { name, value, .. } => self.let_stmt(name, value),
+            Statement::Setting {
+                keyword,
+                value,
+                span,
+            } if keyword.text == "duration" => {
+                if let Some(first) = self.duration_set {
+                    self.diags.push(Diagnostic::error(
+                        ErrorKind::DuplicateName,
+                        *span,
+                        format!("`duration` is set twice (first at line {first})"),
+                    ));
                     return;
                 }
+                self.duration_set = Some(span.line);
+                if self.opts.duration.is_none() {
+                    self.env
+                        .number(value, Kind::Time, "duration")
+                        .and_then(|d| self.set_duration(d, value.span.into()))
+                } else {
+                    Ok(())
+                }
             }
+            Statement::Setting { .. } => Ok(()), // rate: done
+            Statement::Module {
+                keyword,
+                refs,
+                params,
+                span,
+            } => self.module(keyword, refs, params, *span),
+            Statement::Probe {
+                keyword,
+                name,
+                terms,
+                params,
+                span,
+            } => self.probe(keyword, name, terms, params, *span),
+        };
+        if let Err(e) = r {
+            if let Some((w, _)) = declared_name(s) {
+                if self.names.get(&w.text).is_none() {
+                    self.poisoned.insert(w.text.clone());
+                }
+            }
+            if e.message.is_empty() {
+                return; // a reference to a module whose declaration already failed
+            }
+            self.diags.push(e);
+            if self.diags.len() >= 50 {
+                self.stopped = true;
+            }
+        }
+    }
+
+    /// After the statements: command-line overrides, and what only the whole model can tell.
+    fn finish(&mut self) {
+        if self.stopped {
+            return;
         }
         if let Some(d) = self.opts.duration.clone() {
             match syntax::parse_expr(&d).and_then(|e| self.env.number(&e, Kind::Time, "--duration"))
@@ -374,7 +500,7 @@ impl<'a> Builder<'a> {
                     Some("give a time such as 2s, 500ms or 88200 (samples)".into()),
                 ),
             }
-        } else if duration_set.is_none() {
+        } else if self.duration_set.is_none() {
             self.duration = self.fs.round() as u64; // default: one second
         }
         for (i, (name, _)) in self.opts.sets.iter().enumerate() {
@@ -401,6 +527,25 @@ impl<'a> Builder<'a> {
                 ),
             );
         }
+    }
+
+    /// The line where `name` is first declared in the text, if anywhere.
+    fn declared_line(&self, name: &str) -> Option<usize> {
+        self.declared_at
+            .get_or_init(|| {
+                let mut at = HashMap::new();
+                let mut parser = syntax::LineParser::new();
+                for (n, base, line) in syntax::lines(self.text) {
+                    if let Some(Ok(s)) = parser.parse_line(line, base, n) {
+                        if let Some((w, span)) = declared_name(&s) {
+                            at.entry(w.text.clone()).or_insert(span.line);
+                        }
+                    }
+                }
+                at
+            })
+            .get(name)
+            .copied()
     }
 
     fn resolve_rate(&mut self, stmts: &[Statement]) -> R<()> {
@@ -545,15 +690,20 @@ impl<'a> Builder<'a> {
 
     // ---- names -------------------------------------------------------------------------------
 
-    pub(crate) fn declare(&mut self, name: String, entity: Entity, span: Span) -> R<()> {
-        if let Some((_, first)) = self.names.get(&name) {
-            return Err(Diagnostic::error(
+    /// Declares a new name; returns its index in the list of its kind.
+    pub(crate) fn declare(&mut self, name: String, decl: Decl, span: Span) -> R<u32> {
+        let duplicate = |name: &str, first: Span| {
+            Diagnostic::error(
                 ErrorKind::DuplicateName,
                 span,
                 format!("`{name}` is already defined at line {}", first.line),
             )
-            .with_hint("every module needs its own name"));
-        }
+            .with_hint("every module needs its own name")
+        };
+        let at = self
+            .names
+            .vacancy(&name)
+            .map_err(|first| duplicate(&name, first))?;
         let budget = self.opts.limits.max_modules;
         if self.names.len() >= budget {
             return Err(Diagnostic::error(
@@ -563,13 +713,19 @@ impl<'a> Builder<'a> {
             )
             .with_hint("raise the limit with --max-modules"));
         }
-        self.names.insert(name, (entity, span));
-        Ok(())
+        if self.names.next_index(decl) >= MAX_INDEX {
+            return Err(Diagnostic::error(
+                ErrorKind::Limit,
+                span,
+                format!("the model has more than {MAX_INDEX} modules of one kind"),
+            ));
+        }
+        Ok(self.names.insert(at, name, decl, span))
     }
 
-    fn plain_name(&self, r: &Ref) -> R<Word> {
+    fn plain_name<'r>(&self, r: &'r Ref) -> R<&'r Word> {
         match r.parts.as_slice() {
-            [(w, idx)] if idx.is_empty() => Ok(w.clone()),
+            [(w, idx)] if idx.is_empty() => Ok(w),
             _ => Err(Diagnostic::error(
                 ErrorKind::Syntax,
                 r.span,
@@ -581,7 +737,13 @@ impl<'a> Builder<'a> {
         }
     }
 
-    fn ref_text(&self, r: &Ref) -> R<String> {
+    /// The name a reference stands for, with its indices evaluated (`s[3]`, `mem.h[2,5]`).
+    fn ref_text<'r>(&self, r: &'r Ref) -> R<Cow<'r, str>> {
+        if let [(w, idx)] = r.parts.as_slice() {
+            if idx.is_empty() {
+                return Ok(Cow::Borrowed(&w.text));
+            }
+        }
         let mut out = String::new();
         for (i, (w, idx)) in r.parts.iter().enumerate() {
             if i > 0 {
@@ -607,20 +769,21 @@ impl<'a> Builder<'a> {
                 out.push(']');
             }
         }
-        Ok(out)
+        Ok(Cow::Owned(out))
     }
 
-    fn lookup(&self, r: &Ref) -> R<(String, Entity)> {
+    fn lookup<'r>(&self, r: &'r Ref) -> R<(Cow<'r, str>, Entity)> {
         let name = self.ref_text(r)?;
         if let Some((e, _)) = self.names.get(&name) {
-            return Ok((name, *e));
+            return Ok((name, e));
         }
         let base = &r.parts[0].0.text;
         if self.poisoned.contains(base) {
             return Err(Diagnostic::error(ErrorKind::UnknownName, r.span, ""));
         }
-        if let Some(line) = self.declared_at.get(base) {
-            if !self.names.contains_key(base) {
+        let base_entity = self.names.get(base);
+        if base_entity.is_none() {
+            if let Some(line) = self.declared_line(base) {
                 return Err(Diagnostic::error(
                     ErrorKind::UnknownName,
                     r.span,
@@ -629,12 +792,12 @@ impl<'a> Builder<'a> {
                 .with_hint("move its declaration above this line"));
             }
         }
-        let hint = match self.names.get(base.as_str()) {
+        let hint = match base_entity {
             Some((Entity::Group(kind), _)) if name != *base => Some(format!(
                 "`{base}` is a {kind}; its first mass is `{}`",
                 first_member(base, kind)
             )),
-            _ => did_you_mean(&name, self.names.keys().map(String::as_str)),
+            _ => did_you_mean(&name, self.names.iter()),
         };
         Err(Diagnostic::error(
             ErrorKind::UnknownName,
@@ -679,10 +842,8 @@ impl<'a> Builder<'a> {
     }
 
     pub(crate) fn add_mat(&mut self, name: String, m: Material, span: Span) -> R<MatId> {
-        let id = MatId(self.net.materials.len() as u32);
-        self.declare(name.clone(), Entity::Mat(id), span)?;
+        let id = MatId(self.declare(name, Decl::Mat, span)?);
         self.net.add_material(m);
-        self.mat_names.push(Named { name, span });
         Ok(id)
     }
 
@@ -694,8 +855,7 @@ impl<'a> Builder<'a> {
         b: MatId,
         span: Span,
     ) -> R<LinkId> {
-        let id = LinkId(self.net.links.len() as u32);
-        self.declare(name.clone(), Entity::Link(id), span)?;
+        let id = LinkId(self.declare(name, Decl::Link, span)?);
         if let Interaction::But { s, .. } = law {
             self.tracked.push(Tracked {
                 link: id,
@@ -703,7 +863,6 @@ impl<'a> Builder<'a> {
             });
         }
         self.net.add_link(law, a, b);
-        self.link_names.push(Named { name, span });
         Ok(id)
     }
 
@@ -848,24 +1007,24 @@ impl<'a> Builder<'a> {
             .with_hint(format!("write: {form}")));
         }
         let mut p = Params::new(params);
-        let what = format!("`{k}`");
+        let what = || format!("`{k}`");
         let name = if k == "init" {
             None
         } else {
             Some(self.plain_name(&refs[0])?)
         };
-        let nm = || name.clone().map(|w| w.text).unwrap_or_default();
+        let nm = || name.map(|w| w.text.clone()).unwrap_or_default();
         match k {
             "mas" => {
                 let m = self.positive(&mut p, "M", span)?;
                 let x0 = self.num(&mut p, "X0", Kind::Plain, 0.0)?;
                 let v0 = self.num(&mut p, "V0", Kind::Velocity, 0.0)?;
-                p.finish(&what)?;
+                p.finish_with(what)?;
                 self.add_mat(nm(), Material::Mas { m, x0, v0 }, span)?;
             }
             "sol" => {
                 let x0 = self.num(&mut p, "X0", Kind::Plain, 0.0)?;
-                p.finish(&what)?;
+                p.finish_with(what)?;
                 self.add_mat(nm(), Material::Sol { x0 }, span)?;
             }
             "cel" => {
@@ -928,7 +1087,7 @@ impl<'a> Builder<'a> {
                 let x0 = self.num(&mut p, "X0", Kind::Plain, 0.0)?;
                 let v0 = self.num(&mut p, "V0", Kind::Velocity, 0.0)?;
                 let r = self.num(&mut p, "R", Kind::Plain, 0.0)?;
-                p.finish(&what)?;
+                p.finish_with(what)?;
                 self.add_mat(
                     nm(),
                     Material::Cel {
@@ -944,7 +1103,7 @@ impl<'a> Builder<'a> {
             }
             "enx" => {
                 let signal = self.signal(&mut p, span)?;
-                p.finish(&what)?;
+                p.finish_with(what)?;
                 self.add_mat(nm(), Material::Enx { signal }, span)?;
             }
             "res" | "fro" | "ref" | "but" | "lnl" => {
@@ -997,7 +1156,7 @@ impl<'a> Builder<'a> {
                         Interaction::Lnl { lk, lz }
                     }
                 };
-                p.finish(&what)?;
+                p.finish_with(what)?;
                 let (ma, mb) = (
                     &self.net.materials[a.index()],
                     &self.net.materials[b.index()],
@@ -1026,16 +1185,15 @@ impl<'a> Builder<'a> {
             "enf" => {
                 let target = self.material(&refs[1], "the target of an enf")?;
                 let signal = self.signal(&mut p, span)?;
-                p.finish(&what)?;
+                p.finish_with(what)?;
                 if !self.net.materials[target.index()].is_mobile() {
                     self.diags.push(Diagnostic::warning(
                         refs[1].span,
                         "a force on a sol or enx is discarded: it cannot move it",
                     ));
                 }
-                self.declare(nm(), Entity::Force, span)?;
+                self.declare(nm(), Decl::Force, span)?;
                 self.net.add_force(target, signal);
-                self.force_names.push(Named { name: nm(), span });
             }
             "init" => {
                 let target = self.material(&refs[0], "`init`")?;
@@ -1047,7 +1205,7 @@ impl<'a> Builder<'a> {
                     .get("V0", &[])?
                     .map(|x| self.env.number(&x.value, Kind::Velocity, "V0"))
                     .transpose()?;
-                p.finish(&what)?;
+                p.finish_with(what)?;
                 match &mut self.net.materials[target.index()] {
                     Material::Mas { x0: px, v0: pv, .. } | Material::Cel { x0: px, v0: pv, .. } => {
                         if let Some(x) = x0 {
@@ -1117,7 +1275,7 @@ impl<'a> Builder<'a> {
     ) -> R<()> {
         let name = self.plain_name(name)?;
         let p = Params::new(params);
-        p.finish(&format!("`{}`", kw.text))?;
+        p.finish_with(|| format!("`{}`", kw.text))?;
         let mut probes = Vec::with_capacity(terms.len());
         for (gain, negative, r) in terms {
             let g = match gain {
@@ -1132,7 +1290,7 @@ impl<'a> Builder<'a> {
             };
             probes.push((g, probe));
         }
-        self.declare(name.text.clone(), Entity::Output, span)?;
+        self.declare(name.text.clone(), Decl::Output, span)?;
         match probes.as_slice() {
             [(g, Probe::Position(m))] if *g == 1.0 => {
                 self.net.add_position_output(*m);
@@ -1144,10 +1302,6 @@ impl<'a> Builder<'a> {
                 self.net.add_sum_output(probes);
             }
         }
-        self.output_names.push(Named {
-            name: name.text,
-            span,
-        });
         Ok(())
     }
 
@@ -1221,6 +1375,15 @@ impl<'a> Builder<'a> {
             .with_hint("raise the limit with --max-modules"));
         }
         Ok(())
+    }
+
+    /// Room for `mats` more materials and `links` more links (a generator's, within budget).
+    fn reserve(&mut self, mats: usize, links: usize) {
+        self.net.materials.reserve(mats);
+        self.names.materials.reserve(mats);
+        self.net.links.reserve(links);
+        self.names.links.reserve(links);
+        self.names.reserve(mats + links);
     }
 
     fn string(&mut self, name: String, p: &mut Params, span: Span) -> R<()> {
@@ -1316,7 +1479,8 @@ impl<'a> Builder<'a> {
         };
         p.finish("`string`")?;
         self.budget(3 * n + 3, span)?;
-        self.declare(name.clone(), Entity::Group("string"), span)?;
+        self.declare(name.clone(), Decl::Group("string"), span)?;
+        self.reserve(n + 2, if air.is_some() { 2 * n + 1 } else { n + 1 });
         let mut ids = Vec::with_capacity(n);
         for i in 0..n {
             let x0 = match pluck {
@@ -1431,7 +1595,11 @@ impl<'a> Builder<'a> {
         p.finish("`membrane`")?;
         let masses = rows.saturating_mul(cols);
         self.budget(masses.saturating_mul(4), span)?;
-        self.declare(name.clone(), Entity::Group("membrane"), span)?;
+        self.declare(name.clone(), Decl::Group("membrane"), span)?;
+        let links = rows * cols.saturating_sub(1)
+            + rows.saturating_sub(1) * cols
+            + if fixed { 2 * (rows + cols) } else { 0 };
+        self.reserve(masses + 1, links);
         let mut ids = Vec::with_capacity(masses);
         for r in 0..rows {
             for c in 0..cols {

@@ -2,6 +2,8 @@
 //!
 //! The lexer keeps byte spans so every later stage can point at the exact text.
 
+use std::cell::Cell;
+
 use crate::error::{did_you_mean, Diagnostic, ErrorKind, Span};
 
 /// A word of the source with its span (identifiers, keywords, parameter keys).
@@ -150,18 +152,18 @@ pub const UNITS: &[&str] = &[
 
 const MAX_DEPTH: usize = 64;
 
-#[derive(Clone, Debug, PartialEq)]
-enum Tok {
-    Ident(String),
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Tok<'a> {
+    Ident(&'a str),
     Num(f64),
-    Unit(String),
-    Str(String),
+    Unit(&'static str),
+    Str(&'a str),
     Sym(char),
 }
 
-#[derive(Clone, Debug)]
-struct Token {
-    tok: Tok,
+#[derive(Clone, Copy, Debug)]
+struct Token<'a> {
+    tok: Tok<'a>,
     span: Span,
 }
 
@@ -169,13 +171,42 @@ struct LineLexer<'a> {
     text: &'a str,
     base: usize,
     line: usize,
-    line_start: usize,
+    /// Length of the longest all-ASCII prefix of `text`: a column there is the byte offset + 1.
+    ascii: usize,
+    /// A byte offset past `ascii` and the number of characters before it: columns further on are
+    /// counted from there (tokens come in order, so a line is counted once).
+    mark: Cell<(usize, usize)>,
 }
 
-impl LineLexer<'_> {
+impl<'a> LineLexer<'a> {
+    fn new(text: &'a str, base: usize, line: usize) -> LineLexer<'a> {
+        let ascii = text
+            .bytes()
+            .position(|b| !b.is_ascii())
+            .unwrap_or(text.len());
+        LineLexer {
+            text,
+            base,
+            line,
+            ascii,
+            mark: Cell::new((ascii, ascii)),
+        }
+    }
+
     fn span(&self, start: usize, end: usize) -> Span {
-        let col = self.text[..start].chars().count() + 1;
-        let _ = self.line_start;
+        // counting the characters from the start of the line for every token would make a long
+        // line quadratic
+        let col = if start <= self.ascii {
+            start + 1
+        } else {
+            let (from, chars) = match self.mark.get() {
+                (at, n) if at <= start => (at, n),
+                _ => (self.ascii, self.ascii),
+            };
+            let chars = chars + self.text[from..start].chars().count();
+            self.mark.set((start, chars));
+            chars + 1
+        };
         Span {
             start: self.base + start,
             end: self.base + end,
@@ -184,9 +215,10 @@ impl LineLexer<'_> {
         }
     }
 
-    fn lex(&self) -> Result<Vec<Token>, Diagnostic> {
+    /// The tokens of the line, into `toks` (cleared first).
+    fn lex(&self, toks: &mut Vec<Token<'a>>) -> Result<(), Diagnostic> {
         let bytes = self.text.as_bytes();
-        let mut toks = Vec::new();
+        toks.clear();
         let mut i = 0;
         while i < bytes.len() {
             let c = self.text[i..].chars().next().unwrap_or(' ');
@@ -247,7 +279,7 @@ impl LineLexer<'_> {
                     i += 1;
                 }
                 toks.push(Token {
-                    tok: Tok::Ident(self.text[start..i].to_string()),
+                    tok: Tok::Ident(&self.text[start..i]),
                     span: self.span(start, i),
                 });
                 continue;
@@ -257,7 +289,7 @@ impl LineLexer<'_> {
                 match rest.find('"') {
                     Some(end) => {
                         toks.push(Token {
-                            tok: Tok::Str(rest[..end].to_string()),
+                            tok: Tok::Str(&rest[..end]),
                             span: self.span(start, i + 2 + end),
                         });
                         i += end + 2;
@@ -288,10 +320,10 @@ impl LineLexer<'_> {
             )
             .with_hint("statements use names, numbers, `key=value`, ( ) [ ] , and + - * / ^"));
         }
-        Ok(toks)
+        Ok(())
     }
 
-    fn lex_unit(&self, start: usize) -> Result<(String, usize), Diagnostic> {
+    fn lex_unit(&self, start: usize) -> Result<(&'static str, usize), Diagnostic> {
         let bytes = self.text.as_bytes();
         let mut i = start;
         let word = |i: &mut usize| {
@@ -314,7 +346,7 @@ impl LineLexer<'_> {
         }
         let text = &self.text[start..i];
         match UNITS.iter().find(|u| u.eq_ignore_ascii_case(text)) {
-            Some(u) => Ok((u.to_string(), i)),
+            Some(u) => Ok((u, i)),
             None => Err(Diagnostic::error(
                 ErrorKind::Syntax,
                 self.span(start, i),
@@ -329,42 +361,82 @@ impl LineLexer<'_> {
     }
 }
 
+/// The lines of a text: `(line number from 1, byte offset of the line, the line without its
+/// end-of-line characters)`.
+pub(crate) fn lines(text: &str) -> impl Iterator<Item = (usize, usize, &str)> {
+    text.split_inclusive('\n')
+        .enumerate()
+        .scan(0, |base, (n, raw)| {
+            let start = *base;
+            *base += raw.len();
+            Some((n + 1, start, raw.trim_end_matches(['\n', '\r'])))
+        })
+}
+
+/// The statement keyword a line starts with, as written (empty when it starts otherwise): what
+/// [`LineParser::parse_line`] would take for the keyword, without lexing the rest of the line.
+pub(crate) fn first_word(line: &str) -> &str {
+    let t = line.trim_start();
+    match t.bytes().next() {
+        Some(b) if b.is_ascii_alphabetic() || b == b'_' => {
+            let end = t
+                .bytes()
+                .position(|b| !(b.is_ascii_alphanumeric() || b == b'_'))
+                .unwrap_or(t.len());
+            &t[..end]
+        }
+        _ => "",
+    }
+}
+
+/// Parses lines one at a time, reusing one token buffer (a model is parsed a line at a time and
+/// each statement resolved before the next line is read, so no line outlives its resolution).
+pub(crate) struct LineParser<'a> {
+    toks: Vec<Token<'a>>,
+}
+
+impl<'a> LineParser<'a> {
+    pub(crate) fn new() -> LineParser<'a> {
+        LineParser { toks: Vec::new() }
+    }
+
+    /// The statement of one line (`None` for a blank or comment line), or its error. `line` is the
+    /// text without its end of line, `base` its byte offset in the file, `n` its number from 1.
+    pub(crate) fn parse_line(
+        &mut self,
+        line: &'a str,
+        base: usize,
+        n: usize,
+    ) -> Option<Result<Statement, Diagnostic>> {
+        let lexer = LineLexer::new(line, base, n);
+        let line_span = lexer.span(0, line.len());
+        if let Err(e) = lexer.lex(&mut self.toks) {
+            return Some(Err(e));
+        }
+        if self.toks.is_empty() {
+            return None;
+        }
+        let mut p = Parser {
+            toks: &self.toks,
+            pos: 0,
+            depth: 0,
+            eol: lexer.span(line.len(), line.len()),
+        };
+        Some(p.statement(line_span))
+    }
+}
+
 /// Parses a whole model text. Returns the statements of the lines that parsed and one error per
 /// line that did not (parsing goes on at the next line).
 pub fn parse(text: &str) -> (Vec<Statement>, Vec<Diagnostic>) {
     let mut stmts = Vec::new();
     let mut errors = Vec::new();
-    let mut base = 0;
-    for (n, raw) in text.split_inclusive('\n').enumerate() {
-        let line = raw.trim_end_matches(['\n', '\r']);
-        let lexer = LineLexer {
-            text: line,
-            base,
-            line: n + 1,
-            line_start: base,
-        };
-        let line_span = lexer.span(0, line.len());
-        base += raw.len();
-        let toks = match lexer.lex() {
-            Ok(t) => t,
-            Err(e) => {
-                errors.push(e);
-                continue;
-            }
-        };
-        if toks.is_empty() {
-            continue;
-        }
-        let eol = lexer.span(line.len(), line.len());
-        let mut p = Parser {
-            toks: &toks,
-            pos: 0,
-            depth: 0,
-            eol,
-        };
-        match p.statement(line_span) {
-            Ok(s) => stmts.push(s),
-            Err(e) => errors.push(e),
+    let mut parser = LineParser::new();
+    for (n, base, line) in lines(text) {
+        match parser.parse_line(line, base, n) {
+            Some(Ok(s)) => stmts.push(s),
+            Some(Err(e)) => errors.push(e),
+            None => {}
         }
     }
     (stmts, errors)
@@ -372,13 +444,9 @@ pub fn parse(text: &str) -> (Vec<Statement>, Vec<Diagnostic>) {
 
 /// Parses one expression (for `--set NAME=VALUE`, `--duration`, `--rate` on the command line).
 pub fn parse_expr(text: &str) -> Result<Expr, Diagnostic> {
-    let lexer = LineLexer {
-        text,
-        base: 0,
-        line: 1,
-        line_start: 0,
-    };
-    let toks = lexer.lex()?;
+    let lexer = LineLexer::new(text, 0, 1);
+    let mut toks = Vec::new();
+    lexer.lex(&mut toks)?;
     let eol = lexer.span(text.len(), text.len());
     let mut p = Parser {
         toks: &toks,
@@ -397,15 +465,15 @@ pub fn parse_expr(text: &str) -> Result<Expr, Diagnostic> {
     Ok(e)
 }
 
-struct Parser<'a> {
-    toks: &'a [Token],
+struct Parser<'t, 'a> {
+    toks: &'t [Token<'a>],
     pos: usize,
     depth: usize,
     eol: Span,
 }
 
-impl Parser<'_> {
-    fn peek(&self) -> Option<&Token> {
+impl<'a> Parser<'_, 'a> {
+    fn peek(&self) -> Option<&Token<'a>> {
         self.toks.get(self.pos)
     }
 
@@ -456,7 +524,7 @@ impl Parser<'_> {
                 span,
             }) => {
                 let w = Word {
-                    text: s.clone(),
+                    text: s.to_string(),
                     span: *span,
                 };
                 self.pos += 1;
@@ -467,19 +535,44 @@ impl Parser<'_> {
     }
 
     fn statement(&mut self, line: Span) -> Result<Statement, Diagnostic> {
-        let kw = match self.peek() {
-            Some(Token {
-                tok: Tok::Ident(_), ..
-            }) => self.ident("a statement")?,
+        let (kw, kw_span) = match self.peek() {
+            Some(&Token {
+                tok: Tok::Ident(s),
+                span,
+            }) => (s, span),
             _ => return Err(self.unexpected("a statement keyword (mas, ref, sox, ...)")),
         };
-        let lower = kw.text.to_ascii_lowercase();
-        let keyword = Word {
-            text: lower.clone(),
-            span: kw.span,
+        self.pos += 1;
+        enum Form {
+            Let,
+            Setting,
+            Probe,
+            Module,
+        }
+        let lower = kw.to_ascii_lowercase();
+        let form = match lower.as_str() {
+            "let" => Form::Let,
+            "rate" | "duration" => Form::Setting,
+            "sox" | "sof" => Form::Probe,
+            k if KEYWORDS.contains(&k) => Form::Module,
+            _ => {
+                return Err(Diagnostic::error(
+                    ErrorKind::UnknownStatement,
+                    kw_span,
+                    format!("unknown statement `{kw}`"),
+                )
+                .with_hint(
+                    did_you_mean(kw, KEYWORDS.iter().copied())
+                        .unwrap_or_else(|| format!("statements are: {}", KEYWORDS.join(", "))),
+                ))
+            }
         };
-        let stmt = match lower.as_str() {
-            "let" => {
+        let keyword = Word {
+            text: lower,
+            span: kw_span,
+        };
+        let stmt = match form {
+            Form::Let => {
                 let name = self.ident("a name after `let`")?;
                 self.expect_sym('=', "`=` after the name")?;
                 let value = self.expr()?;
@@ -489,7 +582,7 @@ impl Parser<'_> {
                     span: line,
                 }
             }
-            "rate" | "duration" => {
+            Form::Setting => {
                 let value = self.expr()?;
                 Statement::Setting {
                     keyword,
@@ -497,7 +590,7 @@ impl Parser<'_> {
                     span: line,
                 }
             }
-            "sox" | "sof" => {
+            Form::Probe => {
                 let name = self.reference()?;
                 let mut terms = Vec::new();
                 let mut negative = false;
@@ -529,7 +622,7 @@ impl Parser<'_> {
                     span: line,
                 }
             }
-            _ if KEYWORDS.contains(&lower.as_str()) => {
+            Form::Module => {
                 let mut refs = Vec::new();
                 while matches!(
                     self.peek(),
@@ -548,17 +641,6 @@ impl Parser<'_> {
                     params,
                     span: line,
                 }
-            }
-            _ => {
-                return Err(Diagnostic::error(
-                    ErrorKind::UnknownStatement,
-                    kw.span,
-                    format!("unknown statement `{}`", kw.text),
-                )
-                .with_hint(
-                    did_you_mean(&kw.text, KEYWORDS.iter().copied())
-                        .unwrap_or_else(|| format!("statements are: {}", KEYWORDS.join(", "))),
-                ))
             }
         };
         if let Some(t) = self.peek() {
@@ -725,7 +807,7 @@ impl Parser<'_> {
         }) = self.peek()
         {
             let w = Word {
-                text: u.clone(),
+                text: u.to_string(),
                 span: *span,
             };
             self.pos += 1;
@@ -739,7 +821,7 @@ impl Parser<'_> {
     }
 
     fn primary(&mut self) -> Result<Expr, Diagnostic> {
-        let Some(t) = self.peek().cloned() else {
+        let Some(t) = self.peek().copied() else {
             return Err(self.unexpected("a value"));
         };
         match t.tok {
@@ -753,7 +835,7 @@ impl Parser<'_> {
             Tok::Str(s) => {
                 self.pos += 1;
                 Ok(Expr {
-                    kind: ExprKind::Str(s),
+                    kind: ExprKind::Str(s.to_string()),
                     span: t.span,
                 })
             }
@@ -761,7 +843,7 @@ impl Parser<'_> {
                 self.pos += 1;
                 if self.peek_sym('(') {
                     let w = Word {
-                        text: name,
+                        text: name.to_string(),
                         span: t.span,
                     };
                     self.pos += 1;
@@ -798,7 +880,7 @@ impl Parser<'_> {
                     });
                 }
                 Ok(Expr {
-                    kind: ExprKind::Name(name),
+                    kind: ExprKind::Name(name.to_string()),
                     span: t.span,
                 })
             }
