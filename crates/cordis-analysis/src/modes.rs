@@ -307,15 +307,13 @@ impl ModalAnalysis {
             m.amplitudes = modal_amplitudes(sys, &m, l);
             modes.push(m);
         }
-        let mut ma = ModalAnalysis {
-            max_radius: modes.iter().fold(0.0f64, |a, m| a.max(m.radius)),
+        let decomposition = Decomposition::Modal { phi, lambda, c };
+        Ok(Some(ModalAnalysis::assemble(
             modes,
             method,
             lambda_max,
-            decomposition: Decomposition::Modal { phi, lambda, c },
-        };
-        ma.sort();
-        Ok(Some(ma))
+            decomposition,
+        )))
     }
 
     /// The modes from the state matrix even when the damping is decoupled (for checking the two
@@ -336,6 +334,24 @@ impl ModalAnalysis {
             Method::StateSpace { coupling: f64::NAN },
             f64::NAN,
         )
+    }
+
+    /// The analysis from its modes (sorted here), with the largest radius.
+    fn assemble(
+        modes: Vec<Mode>,
+        method: Method,
+        lambda_max: f64,
+        decomposition: Decomposition,
+    ) -> ModalAnalysis {
+        let mut ma = ModalAnalysis {
+            max_radius: modes.iter().fold(0.0f64, |a, m| a.max(m.radius)),
+            modes,
+            method,
+            lambda_max,
+            decomposition,
+        };
+        ma.sort();
+        ma
     }
 
     fn sort(&mut self) {
@@ -505,19 +521,13 @@ fn state_space(
         }
     }
     let modes = eigen_modes(sys, &mu, &v_top, &coeff, 2 * sys.free_parts.len());
-    let mut ma = ModalAnalysis {
-        max_radius: modes.iter().fold(0.0f64, |a, m| a.max(m.radius)),
-        modes,
-        method,
-        lambda_max,
-        decomposition: Decomposition::State {
-            mu,
-            v_top,
-            vinv_b,
-            rigid: Vec::new(),
-        },
+    let decomposition = Decomposition::State {
+        mu,
+        v_top,
+        vinv_b,
+        rigid: Vec::new(),
     };
-    ma.sort();
+    let ma = ModalAnalysis::assemble(modes, method, lambda_max, decomposition);
     Ok(ma)
 }
 
@@ -682,20 +692,13 @@ fn from_poles(
         mode.shape = phi.clone();
         modes.push(mode);
     }
-    let mut ma = ModalAnalysis {
-        max_radius: modes.iter().fold(0.0f64, |a, m| a.max(m.radius)),
-        modes,
-        method,
-        lambda_max,
-        decomposition: Decomposition::State {
-            mu,
-            v_top,
-            vinv_b,
-            rigid,
-        },
+    let decomposition = Decomposition::State {
+        mu,
+        v_top,
+        vinv_b,
+        rigid,
     };
-    ma.sort();
-    ma
+    ModalAnalysis::assemble(modes, method, lambda_max, decomposition)
 }
 
 /// The static equilibrium `K x = b` from the undamped modes (`Φ` M-orthonormal): `Σ φ_j (φ_jᵀ b)

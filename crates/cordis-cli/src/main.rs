@@ -4,10 +4,12 @@
 //! they are rendered here.
 
 mod analysis;
+mod design;
 mod output;
 mod pictures;
 mod render;
 mod report;
+mod sweep;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -110,6 +112,345 @@ CSV columns: freq_hz, receptance (X_B/F_A), mobility (V_B/F_A, velocity per samp
     /// Export a model to another tool.
     #[command(subcommand)]
     Export(ExportCmd),
+    /// Render every variant of a grid of `let` values, in parallel, into a folder, with a summary.
+    #[command(after_help = "Examples:
+  cordis sweep examples/instrumentarium/reconfigurable_8s.cordis --set S=0.5..2:4 --set KL=0.002,0.005,0.02 -o sweep/
+  cordis sweep model.cordis --set f=110Hz..880Hz:4:log -o out/ --normalize
+
+--set NAME=a..b:n gives n values from a to b (add :log for geometric steps; units allowed, the
+same at both ends), NAME=v1,v2,... a list. The grid is every combination (the first --set
+varies slowest). Files are MODEL_<index>.wav; index.csv lists each variant's values, status
+(ok, invalid, blew up), peak and RMS. Exit codes: 0 all rendered, 1 some variant invalid,
+3 some blew up, 4 some output not written.")]
+    Sweep(SweepArgs),
+    /// Inverse design: from target frequencies, amplitudes and decay times, or a recording, to a
+    /// model that makes them (a .cordis file, instrumentalist included).
+    #[command(subcommand)]
+    Design(DesignCmd),
+}
+
+#[derive(Args)]
+struct SweepArgs {
+    /// The model file (*.cordis).
+    model: PathBuf,
+    /// A swept `let`: NAME=a..b:n, NAME=a..b:n:log, NAME=v1,v2,... or NAME=v (repeatable).
+    #[arg(long = "set", value_name = "NAME=a..b:n", value_parser = sweep::parse_axis, required = true)]
+    sets: Vec<sweep::Axis>,
+    /// Sample rate, overriding the model's `rate`.
+    #[arg(long, value_name = "R")]
+    rate: Option<String>,
+    /// Render length, overriding the model's `duration`.
+    #[arg(long, value_name = "D")]
+    duration: Option<String>,
+    /// The folder to write the variants and index.csv into.
+    #[arg(short, long, value_name = "DIR")]
+    output: PathBuf,
+    /// Worker threads (default: every core).
+    #[arg(long, value_name = "N")]
+    threads: Option<usize>,
+    /// Scale each variant's WAV to a peak of exactly full scale.
+    #[arg(long)]
+    normalize: bool,
+    /// WAV sample format.
+    #[arg(long, value_enum, default_value_t = output::SampleFormat::F32)]
+    sample_format: output::SampleFormat,
+}
+
+#[derive(Subcommand)]
+enum DesignCmd {
+    /// One damped oscillator (a cel), in closed form, exact for the discrete scheme.
+    #[command(after_help = "Examples:
+  cordis design cell --freq 440Hz --decay 1.5s -o a440.cordis
+  cordis design cell --freq 440Hz --decay 1.5s --amp 0.5 --phase 1.5708 --stiffness 0.1 > cell.cordis
+
+Z/M = 1 - r^2 and K/M = (1 - r)^2 + 4 r sin^2(theta/2), with theta = 2 pi f / Fs and
+r = exp(-1 / (Fs tau)); the oscillator starts at A cos(P) and moves as A r^n cos(theta n + P).
+Without -o the model goes to standard output and the report to standard error.")]
+    Cell(DesignCellArgs),
+    /// A chain of masses and springs with the target frequencies (inverse Lanczos), struck by a
+    /// hammer and listened to at its first mass.
+    #[command(after_help = "Examples:
+  cordis design chain --freqs 150,300,450,600 --ends fixed-free -o chain.cordis
+  cordis design chain --freqs 150,300,450 --amps 1,0.5,0.25 --decay 2s --damping ground --ends fixed-fixed -o c.cordis
+  cordis design chain --freqs @partials.txt --ends free-free -o bar.cordis
+
+Frequencies in Hz (a bare number is Hz; 440Hz and 0.44kHz work too), sorted, distinct, below
+Fs/2. Amplitudes are those heard at the first mass for an impulse at the first mass (relative;
+default equal). The report re-analyses the model as written and compares it with the targets.")]
+    Chain(DesignChainArgs),
+    /// Tune some `let` values of any model so that its lowest modes reach target frequencies
+    /// (Levenberg-Marquardt with continuation from the model's own frequencies).
+    #[command(after_help = "Examples:
+  cordis design fit model.cordis --freqs 110,220,330 --free k1,k2,k3 -o tuned.cordis
+  cordis design fit model.cordis --freqs @targets.txt --free 'k*' -o tuned.cordis
+
+The N lowest modes of the model (N targets) are matched in order. The tuned model is the
+original file with the free `let` lines rewritten; it is written only when the fit converges
+(exit code 3 otherwise).")]
+    Fit(DesignFitArgs),
+    /// Estimate the modes of a recording and build a chain that makes them; render the chain and
+    /// draw the two spectra side by side.
+    #[command(after_help = "Examples:
+  cordis design from-audio bell.wav --modes 12 -o bell.cordis --plot bell_compare.png
+
+Writes the model (-o), its render (--render, default: the model's name with .wav, normalised)
+and, with --plot, the spectra of the recording and of the model with their modes.")]
+    FromAudio(DesignAudioArgs),
+}
+
+#[derive(Args)]
+struct DesignCommon {
+    /// Sample rate of the model, Hz.
+    #[arg(long, value_name = "HZ", default_value_t = 44100.0)]
+    rate: f64,
+    /// Duration written in the model (default: 5 decay times within 1..20 s, 2 s undamped).
+    #[arg(long, value_name = "TIME", value_parser = design::parse_seconds)]
+    duration: Option<f64>,
+    /// The model file to write (default: standard output, with the report on standard error).
+    #[arg(short, long, value_name = "FILE.cordis")]
+    output: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct DesignCellArgs {
+    /// Frequency (e.g. 440Hz).
+    #[arg(long, value_name = "F", value_parser = design::parse_hz)]
+    freq: f64,
+    /// Decay time of the amplitude to 1/e (e.g. 1.5s); undamped if omitted.
+    #[arg(long, value_name = "TAU", value_parser = design::parse_seconds)]
+    decay: Option<f64>,
+    /// Amplitude of the motion (length units).
+    #[arg(
+        long,
+        value_name = "A",
+        default_value_t = 0.5,
+        allow_negative_numbers = true
+    )]
+    amp: f64,
+    /// Phase at sample 0, radians (0: the oscillator starts at its amplitude, at rest).
+    #[arg(
+        long,
+        value_name = "P",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    phase: f64,
+    /// The mass (the stiffness follows).
+    #[arg(long, value_name = "M", conflicts_with = "stiffness")]
+    mass: Option<f64>,
+    /// The stiffness (the mass follows).
+    #[arg(long, value_name = "K")]
+    stiffness: Option<f64>,
+    #[command(flatten)]
+    common: DesignCommon,
+}
+
+#[derive(Args)]
+struct DesignChainArgs {
+    /// Target frequencies, comma-separated (e.g. 150,300,450 or 150Hz,300Hz), or @FILE.
+    #[arg(long, value_name = "LIST")]
+    freqs: String,
+    /// Amplitude of each mode at the first mass, comma-separated, or @FILE (default: equal).
+    #[arg(long, value_name = "LIST")]
+    amps: Option<String>,
+    /// Decay time of the fundamental to 1/e (e.g. 1.5s); undamped if omitted.
+    #[arg(long, value_name = "TAU", value_parser = design::parse_seconds)]
+    decay: Option<f64>,
+    /// How the damping is spread: springs (Z = beta K: higher modes decay faster) or ground
+    /// (Z = alpha M to the ground: every mode decays alike).
+    #[arg(long, value_enum, default_value_t = DampingArg::Springs)]
+    damping: DampingArg,
+    /// The chain's ends: the first mass's end, then the last mass's.
+    #[arg(long, value_enum, default_value_t = EndsArg::FixedFree)]
+    ends: EndsArg,
+    /// The first mass (the overall scale of the chain).
+    #[arg(long, value_name = "M", default_value_t = 1.0)]
+    first_mass: f64,
+    /// fixed-fixed chains: the last spring over the first (the free choice of those ends).
+    #[arg(long, value_name = "RATIO", default_value_t = 1.0)]
+    end_ratio: f64,
+    /// free-free chains: the weight of the added 0 Hz mode at the first mass (0..1; default
+    /// 1/(N+1)).
+    #[arg(long, value_name = "W")]
+    rigid_weight: Option<f64>,
+    #[command(flatten)]
+    common: DesignCommon,
+}
+
+#[derive(Args)]
+struct DesignFitArgs {
+    /// The model to tune.
+    model: PathBuf,
+    /// Target frequencies, comma-separated, or @FILE.
+    #[arg(long, value_name = "LIST")]
+    freqs: String,
+    /// The `let` values to tune, comma-separated; `k*` names every let starting with k.
+    #[arg(long, value_name = "NAMES", value_delimiter = ',', required = true)]
+    free: Vec<String>,
+    /// Continuation steps from the model's frequencies to the targets.
+    #[arg(long, value_name = "N", default_value_t = 10)]
+    steps: usize,
+    /// Levenberg-Marquardt iterations per step.
+    #[arg(long, value_name = "N", default_value_t = 50)]
+    max_iterations: usize,
+    /// Largest frequency error accepted, Hz.
+    #[arg(long, value_name = "HZ", default_value_t = 1e-6)]
+    tolerance: f64,
+    /// The tuned model to write (default: standard output, with the report on standard error).
+    #[arg(short, long, value_name = "FILE.cordis")]
+    output: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct DesignAudioArgs {
+    /// The recording (WAV).
+    input: PathBuf,
+    /// How many modes to estimate (the strongest).
+    #[arg(long, value_name = "N")]
+    modes: usize,
+    /// Which channel of the file (from 0).
+    #[arg(long, default_value_t = 0)]
+    channel: usize,
+    /// Lowest frequency considered, Hz.
+    #[arg(long, value_name = "HZ", value_parser = design::parse_hz)]
+    min_freq: Option<f64>,
+    /// Highest frequency considered, Hz.
+    #[arg(long, value_name = "HZ", value_parser = design::parse_hz)]
+    max_freq: Option<f64>,
+    /// Skip the attack: start the analysis this far into the recording.
+    #[arg(long, value_name = "TIME", default_value = "0", value_parser = design::parse_seconds)]
+    start: f64,
+    /// The chain's ends.
+    #[arg(long, value_enum, default_value_t = EndsArg::FixedFree)]
+    ends: EndsArg,
+    /// How the damping is spread (see `design chain`).
+    #[arg(long, value_enum, default_value_t = DampingArg::Springs)]
+    damping: DampingArg,
+    /// The model file to write.
+    #[arg(short, long, value_name = "FILE.cordis")]
+    output: PathBuf,
+    /// The model's render (WAV; default: the model's name with .wav).
+    #[arg(long, value_name = "OUT.wav")]
+    render: Option<PathBuf>,
+    /// Draw the spectra of the recording and of the model, with their modes.
+    #[arg(long, value_name = "OUT.png")]
+    plot: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum EndsArg {
+    FixedFree,
+    FreeFixed,
+    FixedFixed,
+    FreeFree,
+}
+
+impl From<EndsArg> for cordis_design::chain::Ends {
+    fn from(e: EndsArg) -> Self {
+        use cordis_design::chain::Ends;
+        match e {
+            EndsArg::FixedFree => Ends::FixedFree,
+            EndsArg::FreeFixed => Ends::FreeFixed,
+            EndsArg::FixedFixed => Ends::FixedFixed,
+            EndsArg::FreeFree => Ends::FreeFree,
+        }
+    }
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum DampingArg {
+    Springs,
+    Ground,
+}
+
+impl From<DampingArg> for cordis_design::chain::Damping {
+    fn from(d: DampingArg) -> Self {
+        match d {
+            DampingArg::Springs => cordis_design::chain::Damping::Springs,
+            DampingArg::Ground => cordis_design::chain::Damping::Ground,
+        }
+    }
+}
+
+/// A list option, or a usage error naming the option.
+fn list_arg(flag: &str, s: &str, one: fn(&str) -> Result<f64, String>) -> Result<Vec<f64>, u8> {
+    design::parse_list(s, one).map_err(|e| {
+        eprintln!("cordis: {flag}: {e}");
+        exit::USAGE
+    })
+}
+
+fn design_command(cmd: &DesignCmd) -> u8 {
+    match cmd {
+        DesignCmd::Cell(a) => design::cell(&design::CellRequest {
+            freq_hz: a.freq,
+            decay_s: a.decay,
+            amp: a.amp,
+            phase_rad: a.phase,
+            mass: a.mass,
+            stiffness: a.stiffness,
+            rate: a.common.rate,
+            duration_s: a.common.duration,
+            output: a.common.output.as_ref(),
+        }),
+        DesignCmd::Chain(a) => {
+            let freqs = match list_arg("--freqs", &a.freqs, design::parse_hz) {
+                Ok(f) => f,
+                Err(c) => return c,
+            };
+            let amps = match a
+                .amps
+                .as_deref()
+                .map(|s| list_arg("--amps", s, design::parse_number))
+            {
+                Some(Err(c)) => return c,
+                Some(Ok(v)) => Some(v),
+                None => None,
+            };
+            design::chain(&design::ChainRequest {
+                freqs_hz: freqs,
+                amps,
+                decay_s: a.decay,
+                damping: a.damping.into(),
+                ends: a.ends.into(),
+                first_mass: a.first_mass,
+                end_ratio: a.end_ratio,
+                rigid_weight: a.rigid_weight,
+                rate: a.common.rate,
+                duration_s: a.common.duration,
+                output: a.common.output.as_ref(),
+                origin: "Targets given on the command line.".into(),
+            })
+        }
+        DesignCmd::Fit(a) => {
+            let freqs = match list_arg("--freqs", &a.freqs, design::parse_hz) {
+                Ok(f) => f,
+                Err(c) => return c,
+            };
+            design::fit(&design::FitRequest {
+                model: &a.model,
+                freqs_hz: freqs,
+                free: a.free.clone(),
+                steps: a.steps,
+                max_iterations: a.max_iterations,
+                tolerance_hz: a.tolerance,
+                output: a.output.as_ref(),
+            })
+        }
+        DesignCmd::FromAudio(a) => design::from_audio(&design::AudioRequest {
+            input: &a.input,
+            channel: a.channel,
+            modes: a.modes,
+            min_freq_hz: a.min_freq,
+            max_freq_hz: a.max_freq,
+            start_s: a.start,
+            ends: a.ends.into(),
+            damping: a.damping.into(),
+            output: &a.output,
+            render: a.render.as_ref(),
+            plot: a.plot.as_ref(),
+        }),
+    }
 }
 
 #[derive(Args)]
@@ -369,6 +710,23 @@ fn main() -> ExitCode {
         Command::Export(ExportCmd::Spice(a)) => {
             analysis::spice(&a.model, a.force_at.as_deref(), a.output.as_ref())
         }
+        Command::Design(d) => design_command(&d),
+        Command::Sweep(a) => sweep::sweep(&sweep::SweepRequest {
+            args: &ModelArgs {
+                model: a.model.clone(),
+                rate: a.rate.clone(),
+                duration: a.duration.clone(),
+                sets: Vec::new(),
+                max_modules: Limits::default().max_modules,
+                max_duration: Limits::default().max_duration_s,
+                max_rate: Limits::default().max_rate,
+            },
+            axes: a.sets.clone(),
+            dir: &a.output,
+            threads: a.threads,
+            normalize: a.normalize,
+            sample_format: a.sample_format,
+        }),
         Command::Response(a) => analysis::response(
             &a.model,
             &analysis::ResponseArgs {

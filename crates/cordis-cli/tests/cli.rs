@@ -1,44 +1,18 @@
 //! The `cordis` binary as a black box, run in temporary folders (STYLE.md practice 10).
 #![allow(clippy::unwrap_used)] // tests may panic on failure
 
+#[macro_use]
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
-struct Run {
-    code: i32,
-    stdout: String,
-    stderr: String,
-}
-
-fn cordis(dir: &Path, args: &[&str]) -> Run {
-    let out: Output = Command::new(env!("CARGO_BIN_EXE_cordis"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .unwrap();
-    Run {
-        code: out.status.code().unwrap_or(-1),
-        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
-        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
-    }
-}
+use common::cordis;
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
     p
-}
-
-/// Asserts a run's exit code, printing its output when it differs.
-macro_rules! expect_code {
-    ($run:expr, $code:expr) => {{
-        let r = &$run;
-        assert_eq!(
-            r.code, $code,
-            "exit code\n--- stdout\n{}\n--- stderr\n{}",
-            r.stdout, r.stderr
-        );
-    }};
 }
 
 const OSC: &str = "rate 44100\nduration 100ms\nlet k = 0.01\ncel c M=1 f=441Hz tau=1s X0=1\nsol g\nmas m M=1\nref r g m K=k Z=1e-4\nenf hit m signal=impulse(at=0, amp=0.5)\nsox pos c\nsox pm m\nsof force r\n";
