@@ -34,10 +34,12 @@
 //! 5. The `modes` strongest (by energy in the segment) of the poles between `min_freq_hz` and
 //!    `max_freq_hz` are returned, sorted by frequency.
 //!
-//! Measured on clean synthetic signals (tests/audio.rs: eight bell partials of 0.3–4 s decay,
-//! 2 s at 44.1 kHz, white noise at −60 dB): frequencies within about 1e-7 relative, decay times
-//! and amplitudes within 0.1 %. A 5 s recording at 48 kHz with 30 modes takes about 0.1 s in a
-//! release build.
+//! Measured (tests/audio.rs): eight bell partials of 0.3–4 s decay, 2 s at 44.1 kHz, with white
+//! noise 60 dB below the signal's RMS: frequencies within 9e-8 relative, decay times within 0.04 %,
+//! amplitudes within 0.03 %, phases within 1.2e-4 rad; without noise, and on renders of cordis
+//! models against their exact modal analysis, everything within 3e-10 (frequencies 2e-13). Forty
+//! partials over 5 s at 48 kHz with noise at −50 dB, the 30 strongest asked: 0.17 s in a release
+//! build (0.27 s in the test profile), frequencies within 2.5e-7, decays within 0.26 %.
 //!
 //! # Choices
 //!
@@ -544,10 +546,9 @@ fn esprit(y: &[c64]) -> Result<Vec<c64>, DesignError> {
     let cols = (m / 3).clamp(4, MAX_COLS);
     let rows = m - cols + 1;
     let h = Mat::<c64>::from_fn(rows, cols, |i, j| y[i + j]);
-    let svd = h.thin_svd().map_err(|e| {
+    let (s, v) = right_singular(&h).map_err(|e| {
         DesignError::Numerical(format!("the SVD of a band did not converge: {e:?}"))
     })?;
-    let s: Vec<f64> = (0..cols).map(|i| svd.S()[i].re).collect();
     if !(s[0] > 0.0) {
         return Ok(Vec::new());
     }
@@ -560,7 +561,6 @@ fn esprit(y: &[c64]) -> Result<Vec<c64>, DesignError> {
         .count()
         .clamp(1, cols / 2);
     // rows of H are combinations of the conjugates of V's columns: W = conj(V_s)
-    let v = svd.V();
     let down = Mat::<c64>::from_fn(cols - 1, p, |i, j| v[(i, j)].conj());
     let up = Mat::<c64>::from_fn(cols - 1, p, |i, j| v[(i + 1, j)].conj());
     use faer::linalg::solvers::SolveLstsq;
@@ -569,6 +569,38 @@ fn esprit(y: &[c64]) -> Result<Vec<c64>, DesignError> {
         DesignError::Numerical(format!("the eigenvalues of a band did not converge: {e:?}"))
     })?;
     Ok(ev.into_iter().map(|z| c64::new(z.re, z.im)).collect())
+}
+
+/// Singular values (decreasing) and right singular vectors of `h` (tall), sequentially: the
+/// matrices are small and many, and faer's default thread pool would cost more in
+/// synchronisation than it saves.
+fn right_singular(h: &Mat<c64>) -> Result<(Vec<f64>, Mat<c64>), faer::linalg::svd::SvdError> {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::svd::{self, ComputeSvdVectors};
+    let (m, n) = h.shape();
+    let size = m.min(n);
+    let mut v = Mat::<c64>::zeros(n, size);
+    let mut s = faer::diag::Diag::<c64>::zeros(size);
+    let req = svd::svd_scratch::<c64>(
+        m,
+        n,
+        ComputeSvdVectors::No,
+        ComputeSvdVectors::Thin,
+        faer::Par::Seq,
+        Default::default(),
+    );
+    let mut buf = MemBuffer::new(req);
+    svd::svd(
+        h.as_ref(),
+        s.as_mut(),
+        None,
+        Some(v.as_mut()),
+        faer::Par::Seq,
+        MemStack::new(&mut buf),
+        Default::default(),
+    )?;
+    let s = s.as_ref();
+    Ok(((0..size).map(|i| s[i].re).collect(), v))
 }
 
 /// `Σ_{n<N} e^{l n}`, accurately also for `l` near 0.
