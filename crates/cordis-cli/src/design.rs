@@ -134,6 +134,19 @@ fn write_model(path: Option<&PathBuf>, text: &str) -> Result<()> {
     }
 }
 
+/// Writes the model (to `output`, or standard output), then prints the report with the file named.
+fn deliver(output: Option<&PathBuf>, text: &str, mut rep: String) -> u8 {
+    if let Err(e) = write_model(output, text) {
+        eprintln!("cordis: {e:#}");
+        return exit::OUTPUT;
+    }
+    if let Some(p) = output {
+        let _ = writeln!(rep, "wrote {}", p.display());
+    }
+    say(output.is_some(), &rep);
+    exit::OK
+}
+
 /// Prints the report: on standard output when the model went to a file, else on standard error.
 fn say(to_file: bool, text: &str) {
     if to_file {
@@ -220,15 +233,7 @@ pub fn cell(r: &CellRequest<'_>) -> u8 {
             }
         }
     }
-    if let Err(e) = write_model(r.output, &text) {
-        eprintln!("cordis: {e:#}");
-        return exit::OUTPUT;
-    }
-    if let Some(p) = r.output {
-        let _ = writeln!(rep, "wrote {}", p.display());
-    }
-    say(r.output.is_some(), &rep);
-    exit::OK
+    deliver(r.output, &text, rep)
 }
 
 /// Render length for a design: 5 decay times (at least 1 s, at most 20 s), 2 s when undamped.
@@ -397,10 +402,6 @@ pub fn chain(r: &ChainRequest<'_>) -> u8 {
         Ok(d) => d,
         Err(code) => return code,
     };
-    if let Err(e) = write_model(r.output, &d.text) {
-        eprintln!("cordis: {e:#}");
-        return exit::OUTPUT;
-    }
     let mut rep = d.report;
     if d.max_error_hz > 1e-6 {
         let _ = writeln!(
@@ -409,11 +410,7 @@ pub fn chain(r: &ChainRequest<'_>) -> u8 {
             d.max_error_hz
         );
     }
-    if let Some(p) = r.output {
-        let _ = writeln!(rep, "wrote {}", p.display());
-    }
-    say(r.output.is_some(), &rep);
-    exit::OK
+    deliver(r.output, &d.text, rep)
 }
 
 /// `cordis design fit`.
@@ -493,15 +490,7 @@ pub fn fit(r: &FitRequest<'_>) -> u8 {
         eprint!("{rep}");
         return exit::UNSTABLE;
     }
-    if let Err(e) = write_model(r.output, &res.text) {
-        eprintln!("cordis: {e:#}");
-        return exit::OUTPUT;
-    }
-    if let Some(p) = r.output {
-        let _ = writeln!(rep, "wrote {}", p.display());
-    }
-    say(r.output.is_some(), &rep);
-    exit::OK
+    deliver(r.output, &res.text, rep)
 }
 
 /// `cordis design from-audio`.
