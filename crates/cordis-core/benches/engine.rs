@@ -6,6 +6,7 @@
 //! cargo bench -p cordis-core --bench engine -- string 1000       # a selection
 //! cargo bench -p cordis-core --bench engine -- membrane 32x32 random
 //! CORDIS_BENCH_WORK=2e6 cargo bench -p cordis-core --bench engine   # a quick run
+//! cargo bench -p cordis-core --bench engine -- threads 100000    # 1 vs 2 threads
 //! ```
 //!
 //! Models (every parameter as in the C baselines: M = 1, REF K = 0.1, Z = 0.0001, V0 = 1):
@@ -16,6 +17,11 @@
 //!   border mass, strike at (2,2), SOX at the centre;
 //! - `random N`: N masses, each the end 1 of 2 REF links to masses drawn by a seeded LCG (4 links
 //!   per mass on average), one ground tied to mass 0, strike on N/4, SOX on N/2.
+//!
+//! `threads [N [T [KIND...]]]` times a string of N masses, a membrane of about N masses (316x316
+//! for 100,000) and a random network of N masses (or only the KINDs named: `string`, `membrane`,
+//! `random`) on 1 and on T threads (default 2), printing both figures, their ratio, the load
+//! average and whether the outputs are bit-identical.
 //!
 //! A kind without a size selects its default models. Work per timed run: `CORDIS_BENCH_WORK`
 //! mass-steps (default 2e8, as `baselines.sh`), i.e. `steps = work / masses` (at least 1000). Each
@@ -418,7 +424,9 @@ fn work() -> u64 {
 fn usage() -> ! {
     eprintln!(
         "usage: cargo bench -p cordis-core --bench engine -- [string [N]] [but [N]] [lnl [N]] \
-         [membrane [R C | RxC]] [random [N]]...\n(no model: every default model)"
+         [membrane [R C | RxC]] [random [N]]...\n(no model: every default model)\n   \
+         or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
+         threads, default N = 100000 masses, T = 2)"
     );
     std::process::exit(2)
 }
@@ -489,7 +497,111 @@ fn parse_args() -> Vec<Spec> {
     specs
 }
 
+/// The models of the `threads` mode for about `n` masses: a string, a square membrane, a random
+/// network.
+fn thread_models(n: usize) -> Vec<Model> {
+    let side = ((n as f64).sqrt().round() as usize).max(3);
+    vec![string(n, Law::Ref), membrane(side, side), random(n)]
+}
+
+/// The 1-minute load average, to print next to timings on a shared machine.
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|s| s.split_whitespace().next().map(str::to_string))
+        .unwrap_or_else(|| "n/a".to_string())
+}
+
+/// `threads [N [T [KIND...]]]`: each model (or those whose name starts with a KIND) stepped on 1
+/// and on T threads (default 2), runs alternating, the medians and their ratio; both renders must
+/// be bit-identical.
+fn threads_mode(n: usize, threads: usize, kinds: &[String]) {
+    let work = work();
+    println!(
+        "cordis engine, 1 thread vs {threads} threads; {work:.3e} mass-steps per run, median of \
+         {RUNS} runs (alternating); load average {} at start",
+        load_average(),
+        work = work as f64
+    );
+    println!(
+        "{:<18} {:>8} {:>12} {:>12} {:>7}  {:>8}  check",
+        "model",
+        "steps",
+        "1 thread",
+        format!("{threads} threads"),
+        "ratio",
+        "load"
+    );
+    for model in thread_models(n) {
+        if !kinds.is_empty() && !kinds.iter().any(|k| model.name.starts_with(k.as_str())) {
+            continue;
+        }
+        let steps = (work / model.masses as u64).max(MIN_STEPS);
+        let mass_steps = (model.masses as u64 * steps) as f64;
+        let mut one = Engine::new(&model.net);
+        let mut many = Engine::new(&model.net);
+        many.set_threads(threads);
+        assert!(
+            many.is_parallel() || threads == 1,
+            "{} is below the threshold",
+            model.name
+        );
+        let mut buf = vec![0.0; BLOCK * one.channels()];
+        let (mut t1, mut tn) = (Vec::new(), Vec::new());
+        let (mut s1, mut sn) = (0.0, 0.0);
+        for _ in 0..RUNS {
+            let t = Instant::now();
+            s1 = black_box(run_cordis(&mut one, black_box(steps), &mut buf));
+            t1.push(t.elapsed().as_secs_f64());
+            let t = Instant::now();
+            sn = black_box(run_cordis(&mut many, black_box(steps), &mut buf));
+            tn.push(t.elapsed().as_secs_f64());
+        }
+        let (t1, tn) = (median(t1), median(tn));
+        let check = if s1.to_bits() == sn.to_bits() {
+            "identical"
+        } else {
+            "DIFFERENT"
+        };
+        println!(
+            "{:<18} {:>8} {:>12.3e} {:>12.3e} {:>7.2}  {:>8}  {check}",
+            model.name,
+            steps,
+            mass_steps / t1,
+            mass_steps / tn,
+            t1 / tn,
+            load_average()
+        );
+    }
+}
+
 fn main() {
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
+    if args.first().map(String::as_str) == Some("threads") {
+        let num = |i: usize, default: usize| {
+            args.get(i)
+                .map(|s| {
+                    s.parse::<usize>()
+                        .ok()
+                        .filter(|&n| n >= 9)
+                        .unwrap_or_else(|| usage())
+                })
+                .unwrap_or(default)
+        };
+        let threads = args
+            .get(2)
+            .map(|s| {
+                s.parse::<usize>()
+                    .ok()
+                    .filter(|&t| t >= 1)
+                    .unwrap_or_else(|| usage())
+            })
+            .unwrap_or(2);
+        return threads_mode(num(1, 100_000), threads, args.get(3..).unwrap_or(&[]));
+    }
     let specs = parse_args();
     let work = work();
     println!(

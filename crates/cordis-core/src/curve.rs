@@ -21,6 +21,77 @@ pub struct Curve {
     cumulative: Vec<f64>,
 }
 
+/// A curve of at most `N` points prepared for the engine's LNL loops: abscissas padded with NaN
+/// (never `<= x`, so the branch-free count over all `N` is the count over the real points) and
+/// the evaluation table of [`Curve::eval`]. Evaluates to the same bits as `Curve::eval`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct SmallCurve<const N: usize> {
+    xs: [f64; N],
+    /// `N + 1` entries, the last ones unused when the curve has fewer than `N` points
+    pieces: [Piece; 9],
+}
+
+impl<const N: usize> SmallCurve<N> {
+    /// `None` when the curve has more than `N` points (`N` at most 8).
+    pub(crate) fn new(c: &Curve) -> Option<Self> {
+        let n = c.xs.len();
+        if n > N || N > 8 {
+            return None;
+        }
+        let mut xs = [f64::NAN; N];
+        xs[..n].copy_from_slice(&c.xs);
+        // `pieces[count]` for `count` points whose abscissa is `<= x`: the three cases of
+        // `Curve::eval` (before the first point, on a segment, after the last point)
+        let mut pieces = [Piece::default(); 9];
+        for (count, p) in pieces.iter_mut().enumerate().take(n + 1) {
+            *p = if n == 0 {
+                Piece {
+                    flat: true,
+                    ..Piece::default() // the empty curve is 0 everywhere
+                }
+            } else if count == 0 || count == n {
+                Piece {
+                    y: c.ys[count.saturating_sub(1)],
+                    flat: true,
+                    ..Piece::default()
+                }
+            } else {
+                Piece {
+                    x0: c.xs[count - 1],
+                    y: c.ys[count - 1],
+                    slope: c.slopes[count - 1],
+                    flat: false,
+                }
+            };
+        }
+        Some(SmallCurve { xs, pieces })
+    }
+
+    /// The value at `x`: [`Curve::eval`], bit for bit.
+    #[inline(always)]
+    pub(crate) fn eval(&self, x: f64) -> f64 {
+        let count: usize = self.xs.iter().map(|&a| usize::from(a <= x)).sum();
+        let p = &self.pieces[count.min(8)];
+        let along = p.y + (x - p.x0) * p.slope;
+        if p.flat {
+            p.y
+        } else {
+            along
+        }
+    }
+}
+
+/// What [`Curve::eval`] does when `count` points have an abscissa `<= x`: `y` when `flat` (before
+/// the first point, after the last), else `y + (x - x0) * slope` (the segment from point
+/// `count - 1`).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+struct Piece {
+    x0: f64,
+    y: f64,
+    slope: f64,
+    flat: bool,
+}
+
 /// Why a list of points is not a curve.
 #[derive(Clone, Debug, PartialEq)]
 pub enum CurveError {
@@ -116,8 +187,14 @@ impl Curve {
         if n == 0 {
             return 0.0;
         }
-        // Number of points whose abscissa is <= x; the last of them is `i = count - 1`.
-        let count = self.xs.partition_point(|&a| a <= x);
+        // Number of points whose abscissa is <= x; the last of them is `i = count - 1`. Abscissas
+        // are sorted, so a branch-free count over a short curve (the usual LNL) finds the same
+        // `count` as the binary search, faster.
+        let count = if n <= 8 {
+            self.xs.iter().map(|&a| usize::from(a <= x)).sum()
+        } else {
+            self.xs.partition_point(|&a| a <= x)
+        };
         if count == 0 {
             return self.ys[0];
         }
@@ -180,6 +257,49 @@ impl Curve {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn small_curves_evaluate_to_the_same_bits() {
+        let curves = [
+            vec![],
+            vec![(0.5, -2.0)],
+            vec![(-1.0, 0.5), (2.0, 1.0)],
+            vec![(-0.5, 0.0), (-0.5, -0.05), (0.5, 0.05), (0.5, 0.0)],
+            vec![
+                (-3.0, 1.0),
+                (-1.0, -0.0),
+                (0.0, 0.0),
+                (0.0, 2.0),
+                (1.0, 3.0),
+                (4.0, -1.0),
+            ],
+            (0..8).map(|i| (i as f64, (i * i) as f64)).collect(),
+        ];
+        let mut xs = vec![f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 0.0, -0.0, 1e300];
+        let mut seed = 12345u64;
+        for _ in 0..2000 {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            xs.push(((seed >> 11) as f64 / (1u64 << 53) as f64) * 12.0 - 6.0);
+        }
+        for pts in &curves {
+            let c = Curve::new(pts).unwrap();
+            xs.extend(pts.iter().map(|p| p.0));
+            let s4 = SmallCurve::<4>::new(&c);
+            let s8 = SmallCurve::<8>::new(&c).unwrap();
+            assert_eq!(s4.is_some(), pts.len() <= 4);
+            for &x in &xs {
+                let want = c.eval(x).to_bits();
+                assert_eq!(s8.eval(x).to_bits(), want, "{pts:?} at {x}");
+                if let Some(s4) = s4 {
+                    assert_eq!(s4.eval(x).to_bits(), want, "{pts:?} at {x}");
+                }
+            }
+        }
+        let nine: Vec<(f64, f64)> = (0..9).map(|i| (i as f64, 0.0)).collect();
+        assert!(SmallCurve::<8>::new(&Curve::new(&nine).unwrap()).is_none());
+    }
 
     #[test]
     fn jumps_take_the_later_value_and_ends_hold() {

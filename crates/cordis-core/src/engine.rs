@@ -1,5 +1,39 @@
 //! The stepping side: a network compiled into dense struct-of-arrays state.
+//!
+//! # How a step is computed, and why it is bit-exact on any number of threads
+//!
+//! A step has two phases:
+//!
+//! 1. **Links.** Every interaction computes its force `f(n)` from `x(n)` and `x(n-1)` and stores
+//!    it in its own slot of one buffer `sf` (and `-f` in a second slot when the material at its
+//!    end 1 reads its terms through an index list, see below); every force input (ENF) on a mobile
+//!    material stores its sample `n` in its own slot. Nothing is accumulated, so this phase gives the same bits
+//!    whatever order (or thread) the links are computed in.
+//! 2. **Materials.** Every material sums its terms itself — a *gather*: starting from `+0.0`, it
+//!    adds the slots of its links in declaration order, negated where it is end 1 (end 1 before
+//!    end 2 for a link tied to the same material twice), then the slots of its ENF inputs in
+//!    declaration order. Materials whose terms form arithmetic progressions of slots (strings,
+//!    rows of membranes) negate with a sign mask per progression; the others read the `-f` slot; that is exactly the sum FORMALISM.md prescribes (`F - f` and `F + (-f)`
+//!    are the same IEEE operation, and negation is exact), so each `F(n)` has the bits of the
+//!    reference stepper's. (Only the sign of a NaN may differ, and a NaN force makes `x(n+1)`
+//!    non-finite: a blow-up, whose outputs are never delivered.) Then it computes `x(n+1)` from
+//!    `x(n)`, `x(n-1)` and `F(n)`, again independently of every other material.
+//!
+//! The order of the terms of each sum is fixed at compile time (the per-material edge lists
+//! `eidx`), not by who computes what: cutting the links and the materials into contiguous parts,
+//! one per thread, changes nothing in the arithmetic. With threads, the parts run in lock-step,
+//! one barrier after each phase (see [`crate::parallel`] and [`Job`]).
+//!
+//! Positions live in two buffers that swap roles every step: `pos[n & 1]` holds `x(n)`, the other
+//! `x(n-1)`, which the materials phase overwrites with `x(n+1)` (it reads `x(n-1)` of a material
+//! just before writing that same element). So `x(n)` stays readable for the outputs while the
+//! materials are updated, and a step stores one position per material instead of two.
 
+use std::ops::Range;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use crate::curve::SmallCurve;
+use crate::parallel::{Poisoned, Pool, SharedBuf, SpinBarrier, Task};
 use crate::{Curve, Interaction, LinkId, MatId, Material, Network, Output, Probe, Signal};
 
 /// The law of a run of consecutive links (in declaration order) that share it.
@@ -12,12 +46,77 @@ enum Law {
     Lnl,
 }
 
-/// Links `start..end` (declaration order) all have law `law`.
+impl Law {
+    /// Relative cost of one link, to balance the threads' shares.
+    fn cost(self) -> u64 {
+        match self {
+            Law::Res | Law::Fro | Law::Ref => 2,
+            Law::But => 3,
+            Law::Lnl => 8,
+        }
+    }
+}
+
+/// Links `start..end` (declaration order) all have law `law`. When `uniform`, they also all have
+/// the parameters (K, Z, S, or the curves) of link `start`, so the loop reads them once.
 #[derive(Clone, Copy, Debug)]
 struct Run {
     law: Law,
     start: usize,
     end: usize,
+    uniform: bool,
+    ends: Ends,
+    /// also store `-f` (slots `nl + l`): some end 1 of the run reads it (see `Kernel::eidx`)
+    neg: bool,
+}
+
+/// Where the ends of the links of a run are.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Ends {
+    /// Link `l`'s ends are `la[l]`, `lb[l]`.
+    Indexed,
+    /// Link `start + i`'s ends are `a0 + i sa` and `b0 + i sb` (equal to `la`, `lb`, as
+    /// `Kernel::new` checks): no index to load, and with unit steps the positions are contiguous
+    /// slices, so the loop vectorises (strings, rows of membranes).
+    Step { a0: u32, sa: u32, b0: u32, sb: u32 },
+}
+
+impl Run {
+    /// The links `start..end` (within this run) as a run of their own.
+    fn cut(&self, start: usize, end: usize) -> Run {
+        let i = (start - self.start) as u32;
+        let ends = match self.ends {
+            Ends::Indexed => Ends::Indexed,
+            Ends::Step { a0, sa, b0, sb } => Ends::Step {
+                a0: a0 + i * sa,
+                sa,
+                b0: b0 + i * sb,
+                sb,
+            },
+        };
+        Run {
+            start,
+            end,
+            ends,
+            ..*self
+        }
+    }
+}
+
+/// Shortest stretch of identical links that gets a uniform run of its own.
+const UNIFORM_MIN: usize = 8;
+/// Shortest arithmetic progression of link ends, or of edges, that gets a loop without indices.
+const STEP_MIN: usize = 8;
+
+/// Mobile materials `mats` (storage slots) all have `degree` edges. With `streams`, the edges are
+/// arithmetic progressions: edge `j` of material `mats.start + i` is `base + i step`, `(base,
+/// step) = Kernel::streams[streams.start + j]` (equal to `eidx`, as `Kernel::new` checks); without,
+/// they are read from `eidx`, from `eoff[mats.start]` on.
+#[derive(Clone, Debug)]
+struct Segment {
+    mats: Range<usize>,
+    degree: usize,
+    streams: Option<Range<usize>>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -28,11 +127,56 @@ struct Cel {
     r: f64,
 }
 
+/// An LNL law (elastic curve of `d`, viscous curve of `v`), in the fastest form that evaluates
+/// exactly as [`Curve::eval`].
+#[derive(Clone, Debug)]
+enum Lnl {
+    /// both curves of at most 4 points (the usual springs, contacts and dampers)
+    Small4(SmallCurve<4>, SmallCurve<4>),
+    Small8(SmallCurve<8>, SmallCurve<8>),
+    Any(Curve, Curve),
+}
+
+impl Lnl {
+    fn new(k: &Curve, z: &Curve) -> Lnl {
+        if let (Some(a), Some(b)) = (SmallCurve::new(k), SmallCurve::new(z)) {
+            Lnl::Small4(a, b)
+        } else if let (Some(a), Some(b)) = (SmallCurve::new(k), SmallCurve::new(z)) {
+            Lnl::Small8(a, b)
+        } else {
+            Lnl::Any(k.clone(), z.clone())
+        }
+    }
+
+    #[inline(always)]
+    fn force(&self, d: f64, v: f64) -> f64 {
+        match self {
+            Lnl::Small4(k, z) => k.eval(d) + z.eval(v),
+            Lnl::Small8(k, z) => k.eval(d) + z.eval(v),
+            Lnl::Any(k, z) => k.eval(d) + z.eval(v),
+        }
+    }
+}
+
+/// How a MAS turns its force into an acceleration.
+#[derive(Clone, Debug)]
+enum MasLaw {
+    /// Every MAS has the inertia `1/inv`, a power of two: multiply by `inv` (the same bits as
+    /// dividing, see [`is_power_of_two`]).
+    UniformInv(f64),
+    /// Every MAS has inertia `m`: divide by it.
+    UniformDiv(f64),
+    /// Per-MAS reciprocals, all of powers of two.
+    Inv(Vec<f64>),
+    /// Per-MAS inertias.
+    Div(Vec<f64>),
+}
+
 #[derive(Clone, Copy, Debug)]
 enum Channel {
     Position(u32),
     Force(u32),
-    /// terms `start..end` of `Engine::sum_terms`
+    /// terms `start..end` of `Kernel::sum_terms`
     Sum(usize, usize),
 }
 
@@ -40,6 +184,89 @@ enum Channel {
 enum Term {
     Position(u32),
     Force(u32),
+}
+
+/// The share of one thread: runs of links, a range of ENF inputs and a range of materials.
+#[derive(Clone, Debug, Default)]
+struct Part {
+    /// Runs of links (pieces of `Kernel::whole.runs`); the parts' runs cover every link once.
+    runs: Vec<Run>,
+    enf: Range<usize>,
+    /// Storage slots whose next position this part computes, within `0..n_mce` (MAS, CEL, ENX).
+    mats: Range<usize>,
+    /// `runs` cut into consecutive chunks of about equal cost (ranges of `runs`), and `mats` into
+    /// consecutive ranges: the units the threads claim (see `Job`).
+    link_chunks: Vec<Range<usize>>,
+    mat_chunks: Vec<Range<usize>>,
+}
+
+/// The cost of a chunk of work that is worth a claim (about 2,000 links or 700 masses: a few
+/// microseconds), and the most chunks a part is cut into.
+const CHUNK_COST: u64 = 4096;
+const CHUNKS_MAX: u64 = 16;
+
+/// Everything `Engine::new` compiles: read-only while stepping (so threads share it freely).
+#[derive(Clone, Debug)]
+struct Kernel {
+    // materials, storage order: MAS `0..n_mas`, CEL `..n_mc`, ENX `..n_mce`, SOL `..nm`
+    nm: usize,
+    n_mas: usize,
+    n_mc: usize,
+    n_mce: usize,
+    x_init: Vec<f64>,
+    xp_init: Vec<f64>,
+    mas: MasLaw,
+    cel: Vec<Cel>,
+    enx: Vec<Signal>,
+    /// storage slot of each material, by declaration index
+    slot: Vec<u32>,
+    // links, in declaration order; every `la`/`lb` is < `nm` (checked in `new`)
+    nl: usize,
+    la: Vec<u32>,
+    lb: Vec<u32>,
+    lk: Vec<f64>,
+    lz: Vec<f64>,
+    ls: Vec<f64>,
+    /// The distinct LNL laws (elastic and viscous curves), and which one each link has (0 for
+    /// the links of other laws)
+    lnl: Vec<Lnl>,
+    lnl_of: Vec<u32>,
+    /// ENF inputs on mobile materials (MAS, CEL), declaration order; input `i` writes slot
+    /// `2 nl + i` of `sf`. (Forces on SOL and ENX are discarded, so their inputs are not stepped.)
+    enf: Vec<Signal>,
+    /// Edges of mobile material `s` (storage slot `< n_mc`): `eidx[eoff[s]..eoff[s + 1]]`, slots
+    /// of `sf` in the order their terms are summed: `l` where the material is end 2 of link `l`,
+    /// `nl + l` (the `-f` slot) where it is end 1, `2 nl + i` for ENF input `i`. In the segments
+    /// read by progressions, end-1 edges are `l | NEG` instead ([`NEG`]: negate `sf[l]`), and no
+    /// `-f` slot is needed. Every entry is `< sf_len` without `NEG` (checked in `new`).
+    eoff: Vec<u32>,
+    eidx: Vec<u32>,
+    /// The MAS cut into segments of one degree (storage order groups them by degree).
+    mas_segments: Vec<Segment>,
+    /// `(base, step)` of the edge progressions of the segments
+    streams: Vec<(u32, u32)>,
+    sf_len: usize,
+    // outputs
+    channels: Vec<Channel>,
+    sum_terms: Vec<(f64, Term)>,
+    /// one part with everything: the single-thread step
+    whole: Part,
+    /// one part per thread (see `Engine::set_threads`)
+    parts: Vec<Part>,
+}
+
+/// The state that stepping changes.
+#[derive(Clone, Debug)]
+struct State {
+    n: u64,
+    /// `pos[n & 1]` is `x(n)`, `pos[(n & 1) ^ 1]` is `x(n-1)` (storage order).
+    pos: [Vec<f64>; 2],
+    /// `f(n)` of the links `[0, nl)`, `-f(n)` `[nl, 2 nl)` (for the runs with `neg` only), ENF
+    /// samples `[2 nl, ..)`.
+    sf: Vec<f64>,
+    /// `x(n)` and `x(n-1)` of the moving materials (`0..n_mce`) at the start of the block.
+    snap: [Vec<f64>; 2],
+    blown: Option<BlowUp>,
 }
 
 /// The state right after step `n`, as an observer sees it (see [`Engine::process_observed`]).
@@ -97,61 +324,80 @@ impl std::fmt::Display for BlowUp {
 
 impl std::error::Error for BlowUp {}
 
+/// The worker threads of an engine and the counters by which they claim chunks of work: not
+/// cloned with it (a clone starts its own when it needs them).
+#[derive(Debug, Default)]
+struct PoolSlot(Option<Threads>);
+
+#[derive(Debug)]
+struct Threads {
+    pool: Pool,
+    /// per part: the chunks of links claimed so far in this block (`[0, threads)`), then the
+    /// chunks of materials (`[threads, 2 threads)`)
+    claims: Box<[Claim]>,
+}
+
+/// A claim counter alone on its cache lines (two, for the adjacent-line prefetcher).
+#[derive(Debug, Default)]
+#[repr(align(128))]
+struct Claim(AtomicUsize);
+
+impl Claim {
+    /// The next chunk `i < limit` of this counter, each to exactly one caller (a unique
+    /// compare-and-swap from `i` to `i + 1`); `None` once they are all taken. The counter never
+    /// goes beyond `limit`, so the next step's chunks are `limit..limit + chunks`.
+    #[inline]
+    fn next(&self, limit: usize) -> Option<usize> {
+        let mut i = self.0.load(Ordering::Relaxed);
+        while i < limit {
+            match self
+                .0
+                .compare_exchange_weak(i, i + 1, Ordering::Relaxed, Ordering::Relaxed)
+            {
+                Ok(_) => return Some(i),
+                Err(now) => i = now,
+            }
+        }
+        None
+    }
+}
+
+impl Clone for PoolSlot {
+    fn clone(&self) -> PoolSlot {
+        PoolSlot(None)
+    }
+}
+
 /// A compiled network, ready to step.
 ///
 /// Lifecycle (as in fundsp and nih-plug): [`Engine::new`] allocates everything; [`Engine::reset`]
 /// returns to the initial conditions; [`Engine::process`] steps a block of frames into a caller
 /// buffer and never allocates. Output is bit-for-bit deterministic and independent of how the
-/// run is cut into blocks.
+/// run is cut into blocks, and of the number of threads (see [`Engine::set_threads`]).
 ///
 /// Storage: material modules are reordered by kind (MAS, CEL, ENX, SOL) so that each kind's update
 /// is one tight loop. Links stay in declaration order, cut into runs of consecutive links with the
-/// same law; each run is one loop that computes the force and adds it to both ends at once. Forces
-/// therefore reach the materials in the declaration order of the links, then the ENF inputs in
-/// theirs: the floating-point sums are exactly those of the plain, one-module-at-a-time definition,
-/// and the output equals the reference stepper bit for bit.
+/// same law (and, for long enough stretches, the same parameters). Each link's force is computed
+/// once per step into its own slot; each material then sums the forces of its links in their
+/// declaration order, then its ENF inputs in theirs: the floating-point sums are exactly those of
+/// the plain, one-module-at-a-time definition, and the output equals the reference stepper bit for
+/// bit (module documentation of `engine.rs`).
 #[derive(Clone, Debug)]
 pub struct Engine {
-    n: u64,
-    // material state, storage order
-    x: Vec<f64>,
-    xp: Vec<f64>,
-    f: Vec<f64>,
-    x_init: Vec<f64>,
-    xp_init: Vec<f64>,
-    n_mas: usize,
-    n_cel: usize,
-    mas_m: Vec<f64>,
-    cel: Vec<Cel>,
-    enx: Vec<Signal>,
-    /// storage slot of each material, by declaration index
-    slot: Vec<u32>,
-    /// MAS update multiplies by `1/M` instead of dividing by `M`: only when every MAS inertia is a
-    /// power of two, where both give the same correctly rounded result.
-    mas_inv: Option<Vec<f64>>,
-    // links, in declaration order; every `la`/`lb` is < the number of materials (checked in `new`)
-    runs: Vec<Run>,
-    la: Vec<u32>,
-    lb: Vec<u32>,
-    lk: Vec<f64>,
-    lz: Vec<f64>,
-    ls: Vec<f64>,
-    /// LNL curves, by declaration index of the link (empty curves for other laws)
-    curves: Vec<(Curve, Curve)>,
-    /// per-link force f(n), declaration order
-    lf: Vec<f64>,
-    // inputs and outputs
-    enf_slot: Vec<u32>,
-    enf: Vec<Signal>,
-    channels: Vec<Channel>,
-    sum_terms: Vec<(f64, Term)>,
-    // blow-up handling
-    snap_x: Vec<f64>,
-    snap_xp: Vec<f64>,
-    blown: Option<BlowUp>,
+    k: Kernel,
+    st: State,
+    threads: usize,
+    parallel_threshold: usize,
+    pool: PoolSlot,
 }
 
 impl Engine {
+    /// Networks whose materials plus links number fewer than this step on one thread, whatever
+    /// [`Engine::set_threads`] says (see [`Engine::set_parallel_threshold`]). Below it a step
+    /// takes a few microseconds on one core, and the two barriers a step costs with threads would
+    /// eat most of the gain.
+    pub const DEFAULT_PARALLEL_THRESHOLD: usize = 20_000;
+
     /// Compiles `net`. All allocation happens here.
     ///
     /// # Panics
@@ -159,89 +405,415 @@ impl Engine {
     /// network): a programmer error. The model crate validates user input before building.
     #[track_caller]
     pub fn new(net: &Network) -> Engine {
+        let k = Kernel::new(net);
+        let nm = k.nm;
+        let mut st = State {
+            n: 0,
+            pos: [vec![0.0; nm], vec![0.0; nm]],
+            sf: vec![0.0; k.sf_len],
+            snap: [vec![0.0; k.n_mce], vec![0.0; k.n_mce]],
+            blown: None,
+        };
+        st.reset(&k);
+        Engine {
+            k,
+            st,
+            threads: 1,
+            parallel_threshold: Engine::DEFAULT_PARALLEL_THRESHOLD,
+            pool: PoolSlot(None),
+        }
+    }
+
+    /// Steps with `threads` threads (the calling thread and `threads - 1` workers) in
+    /// [`Engine::process`], when the network is large enough (see
+    /// [`Engine::set_parallel_threshold`]). 0 counts as 1. The default is 1: no thread is started.
+    ///
+    /// The output is the same, bit for bit, for every number of threads and every block size.
+    /// The worker threads are started here (this allocates) and kept, parked, until the engine is
+    /// dropped or this is called again; a clone of the engine starts its own on its first
+    /// threaded `process`. [`Engine::process_observed`] always steps on the calling thread.
+    ///
+    /// Use as many threads as there are free cores, not more: the threads wait for each other
+    /// twice per step, by spinning first.
+    pub fn set_threads(&mut self, threads: usize) {
+        let threads = threads.max(1);
+        if threads != self.threads || self.k.parts.len() != threads {
+            self.threads = threads;
+            self.k.parts = self.k.partition(threads, self.st.line());
+            self.pool = PoolSlot(None);
+        }
+        self.start_pool();
+    }
+
+    /// The number of threads set by [`Engine::set_threads`].
+    pub fn threads(&self) -> usize {
+        self.threads
+    }
+
+    /// Threads are used only for networks with at least `size` materials plus links (default
+    /// [`Engine::DEFAULT_PARALLEL_THRESHOLD`]; 0 uses them for any network, as the tests do).
+    pub fn set_parallel_threshold(&mut self, size: usize) {
+        self.parallel_threshold = size;
+        self.start_pool();
+    }
+
+    /// True when [`Engine::process`] steps on more than one thread.
+    pub fn is_parallel(&self) -> bool {
+        self.threads > 1 && self.k.nm + self.k.nl >= self.parallel_threshold
+    }
+
+    fn start_pool(&mut self) {
+        if !self.is_parallel() {
+            self.pool = PoolSlot(None);
+        } else if self.pool.0.as_ref().map(|t| t.pool.threads()) != Some(self.threads) {
+            // (a clone has its own buffers, aligned differently: cut the parts for them)
+            self.k.parts = self.k.partition(self.threads, self.st.line());
+            self.pool = PoolSlot(Some(Threads {
+                pool: Pool::new(self.threads),
+                claims: (0..2 * self.threads).map(|_| Claim::default()).collect(),
+            }));
+        }
+    }
+
+    /// Back to the initial conditions, step 0.
+    pub fn reset(&mut self) {
+        self.st.reset(&self.k);
+    }
+
+    /// Number of output channels (SOX and SOF, in declaration order).
+    pub fn channels(&self) -> usize {
+        self.k.channels.len()
+    }
+
+    /// The index `n` of the next step.
+    pub fn step_index(&self) -> u64 {
+        self.st.n
+    }
+
+    /// Number of material modules.
+    pub fn material_count(&self) -> usize {
+        self.k.nm
+    }
+
+    /// `x(n)` of a material module, `n` being [`Engine::step_index`].
+    pub fn position(&self, m: MatId) -> f64 {
+        self.st.cur()[self.k.slot[m.index()] as usize]
+    }
+
+    /// `x(n-1)` of a material module.
+    pub fn previous_position(&self, m: MatId) -> f64 {
+        self.st.prev()[self.k.slot[m.index()] as usize]
+    }
+
+    /// `f(n-1)`: the force the interaction computed at the last step (0 before the first).
+    pub fn link_force(&self, l: LinkId) -> f64 {
+        self.link_forces()[l.index()]
+    }
+
+    /// The forces of the links of the last step, in declaration order.
+    pub fn link_forces(&self) -> &[f64] {
+        &self.st.sf[..self.k.nl]
+    }
+
+    /// Steps `frames` times, writing one frame of [`Engine::channels`] values per step into `out`
+    /// (frames interleaved over channels). Never allocates (with threads: once they are started,
+    /// see [`Engine::set_threads`]).
+    ///
+    /// After every block the positions are checked; if one is not finite, the block is replayed
+    /// (on the calling thread) from a snapshot to find the first step and module that went bad,
+    /// and a [`BlowUp`] is returned. The engine then refuses to step until [`Engine::reset`].
+    ///
+    /// # Panics
+    /// If `out.len() != frames * self.channels()`.
+    #[track_caller]
+    pub fn process(&mut self, frames: usize, out: &mut [f64]) -> Result<(), BlowUp> {
+        if self.is_parallel() && frames > 0 && self.st.blown.is_none() {
+            self.process_parallel(frames, out)
+        } else {
+            self.process_observed(frames, out, &mut |_: &StepView<'_>| {})
+        }
+    }
+
+    /// [`Engine::process`], calling `observe` after every step with a view of the state (for
+    /// event logs and energy meters). With a no-op observer this gives exactly the output of
+    /// `process`. It always steps on the calling thread, whatever [`Engine::set_threads`] says.
+    ///
+    /// The observer sees each step once, in order. When a block blows up it has also seen the
+    /// steps of that block up to its end (non-finite values included): discard what it gathered.
+    #[track_caller]
+    pub fn process_observed<O: FnMut(&StepView<'_>)>(
+        &mut self,
+        frames: usize,
+        out: &mut [f64],
+        observe: &mut O,
+    ) -> Result<(), BlowUp> {
+        let ch = self.k.channels.len();
+        assert_eq!(
+            out.len(),
+            frames * ch,
+            "output buffer must hold frames * channels values"
+        );
+        if let Some(b) = self.st.blown {
+            return Err(BlowUp {
+                valid_frames: 0,
+                ..b
+            });
+        }
+        self.st.take_snapshot(self.k.n_mce);
+        let n0 = self.st.n;
+        for frame in 0..frames {
+            self.st
+                .step(&self.k, &mut out[frame * ch..(frame + 1) * ch]);
+            let n = self.st.n;
+            let [p0, p1] = &self.st.pos;
+            let (x, xp) = if n & 1 == 0 { (p0, p1) } else { (p1, p0) };
+            observe(&StepView {
+                n: n - 1,
+                slot: &self.k.slot,
+                x,
+                xp,
+                lf: &self.st.sf[..self.k.nl],
+            });
+        }
+        self.check_block(n0, frames, out)
+    }
+
+    /// [`Engine::process`] on the pool's threads.
+    #[track_caller]
+    fn process_parallel(&mut self, frames: usize, out: &mut [f64]) -> Result<(), BlowUp> {
+        let ch = self.k.channels.len();
+        assert_eq!(
+            out.len(),
+            frames * ch,
+            "output buffer must hold frames * channels values"
+        );
+        self.start_pool(); // only a clone, or an engine after a worker panic, has none yet
+        let n0 = self.st.n;
+        let result = {
+            let Some(Threads { pool, claims }) = self.pool.0.as_ref() else {
+                unreachable!("start_pool starts a pool when is_parallel")
+            };
+            for c in claims.iter() {
+                c.0.store(0, Ordering::Relaxed); // the workers are idle: `pool.run` publishes it
+            }
+            let [p0, p1] = &mut self.st.pos;
+            let [s0, s1] = &mut self.st.snap;
+            // The job borrows the state buffers mutably until `pool.run` returns, which is after
+            // every thread is done with them; nothing else touches them meanwhile.
+            let job = Job {
+                k: &self.k,
+                pos: [SharedBuf::new(p0), SharedBuf::new(p1)],
+                sf: SharedBuf::new(&mut self.st.sf),
+                snap: [SharedBuf::new(s0), SharedBuf::new(s1)],
+                claims,
+                n0,
+                frames,
+                channels: ch,
+            };
+            let r = pool.run(&job, |barrier| job.run_part(0, Some(out), barrier));
+            r.and_then(|()| {
+                if pool.is_poisoned() {
+                    Err(Poisoned)
+                } else {
+                    Ok(())
+                }
+            })
+        };
+        if result.is_err() {
+            self.pool = PoolSlot(None);
+            panic!("an engine worker thread panicked");
+        }
+        self.st.n = n0 + frames as u64;
+        self.check_block(n0, frames, out)
+    }
+
+    /// After a block from step `n0`: if a position is not finite, replays the block from the
+    /// snapshot one step at a time to find the first bad step and module.
+    fn check_block(&mut self, n0: u64, frames: usize, out: &mut [f64]) -> Result<(), BlowUp> {
+        if self.st.cur().iter().all(|v| v.is_finite()) {
+            return Ok(());
+        }
+        let ch = self.k.channels.len();
+        self.st.restore_snapshot(n0, self.k.n_mce);
+        for frame in 0..frames {
+            self.st
+                .step(&self.k, &mut out[frame * ch..(frame + 1) * ch]);
+            if let Some(bad) = self.first_non_finite() {
+                out[(frame + 1) * ch..].fill(0.0);
+                let b = BlowUp {
+                    step: self.st.n,
+                    material: bad,
+                    valid_frames: frame + 1,
+                };
+                self.st.blown = Some(b);
+                return Err(b);
+            }
+        }
+        unreachable!("a replay from the same state must reproduce the same non-finite position")
+    }
+
+    fn first_non_finite(&self) -> Option<MatId> {
+        let x = self.st.cur();
+        self.k
+            .slot
+            .iter()
+            .position(|&s| !x[s as usize].is_finite())
+            .map(|i| MatId(i as u32))
+    }
+}
+
+impl State {
+    /// Where `sf` starts within a 64-byte cache line, in slots.
+    fn line(&self) -> usize {
+        self.sf.as_ptr() as usize / std::mem::size_of::<f64>() % 8
+    }
+
+    fn cur(&self) -> &[f64] {
+        &self.pos[(self.n & 1) as usize]
+    }
+
+    fn prev(&self) -> &[f64] {
+        &self.pos[((self.n & 1) ^ 1) as usize]
+    }
+
+    fn reset(&mut self, k: &Kernel) {
+        self.n = 0;
+        self.pos[0].copy_from_slice(&k.x_init);
+        self.pos[1].copy_from_slice(&k.xp_init);
+        self.sf.fill(0.0);
+        self.blown = None;
+    }
+
+    /// Saves `x(n)`, `x(n-1)` of the moving materials (SOL positions never change).
+    fn take_snapshot(&mut self, n_mce: usize) {
+        let c = (self.n & 1) as usize;
+        self.snap[0].copy_from_slice(&self.pos[c][..n_mce]);
+        self.snap[1].copy_from_slice(&self.pos[c ^ 1][..n_mce]);
+    }
+
+    /// Back to the snapshot taken at step `n0`.
+    fn restore_snapshot(&mut self, n0: u64, n_mce: usize) {
+        self.n = n0;
+        let c = (n0 & 1) as usize;
+        self.pos[c][..n_mce].copy_from_slice(&self.snap[0]);
+        self.pos[c ^ 1][..n_mce].copy_from_slice(&self.snap[1]);
+    }
+
+    /// One step on the calling thread: link forces, outputs, material update.
+    #[inline]
+    fn step(&mut self, k: &Kernel, frame: &mut [f64]) {
+        let n = self.n;
+        let [p0, p1] = &mut self.pos;
+        let (cur, prev): (&[f64], &mut [f64]) = if n & 1 == 0 { (p0, p1) } else { (p1, p0) };
+        {
+            let (lf, rest) = self.sf.split_at_mut(k.nl);
+            let (nf, ef) = rest.split_at_mut(k.nl);
+            k.links_phase(n, cur, prev, lf, nf, ef);
+        }
+        let sf = &self.sf[..];
+        k.record(cur, &sf[..k.nl], frame);
+        k.materials_phase(
+            k.whole.mats.clone(),
+            n,
+            cur,
+            &mut prev[..k.n_mce],
+            Forces(sf),
+        );
+        self.n = n + 1;
+    }
+}
+
+impl Kernel {
+    #[track_caller]
+    fn new(net: &Network) -> Kernel {
         let nm = net.materials.len();
+        assert!(
+            u32::try_from(nm).is_ok(),
+            "too many material modules for one engine"
+        );
         let rank = |m: &Material| match m {
             Material::Mas { .. } => 0,
             Material::Cel { .. } => 1,
             Material::Enx { .. } => 2,
             Material::Sol { .. } => 3,
         };
+        // Degree of each material (its link ends, and its ENF inputs when it is mobile): mobile
+        // materials are grouped by degree within their kind so that the gather runs in segments of
+        // one degree (fixed-length, branch-free sums; see `Kernel::update_mas`).
+        let mut degree = vec![0usize; nm];
+        for link in &net.links {
+            for id in [link.a, link.b] {
+                if let Some(d) = degree.get_mut(id.index()) {
+                    *d += 1;
+                }
+            }
+        }
+        for fi in &net.forces {
+            if let Some(d) = degree.get_mut(fi.target.index()) {
+                *d += 1;
+            }
+        }
         let mut order: Vec<usize> = (0..nm).collect();
-        order.sort_by_key(|&i| rank(&net.materials[i])); // stable: declaration order within a kind
+        // stable: declaration order within a kind and degree
+        order.sort_by_key(|&i| {
+            let m = &net.materials[i];
+            (rank(m), if m.is_mobile() { degree[i] } else { 0 })
+        });
         let mut slot = vec![0u32; nm];
         for (s, &i) in order.iter().enumerate() {
             slot[i] = s as u32;
         }
-        let mut e = Engine {
-            n: 0,
-            x: vec![0.0; nm],
-            xp: vec![0.0; nm],
-            f: vec![0.0; nm],
-            x_init: vec![0.0; nm],
-            xp_init: vec![0.0; nm],
-            n_mas: 0,
-            n_cel: 0,
-            mas_m: Vec::new(),
-            cel: Vec::new(),
-            enx: Vec::new(),
-            slot,
-            mas_inv: None,
-            runs: Vec::new(),
-            la: Vec::new(),
-            lb: Vec::new(),
-            lk: Vec::new(),
-            lz: Vec::new(),
-            ls: Vec::new(),
-            curves: Vec::new(),
-            lf: vec![0.0; net.links.len()],
-            enf_slot: Vec::new(),
-            enf: Vec::new(),
-            channels: Vec::new(),
-            sum_terms: Vec::new(),
-            snap_x: vec![0.0; nm],
-            snap_xp: vec![0.0; nm],
-            blown: None,
-        };
+        let (mut x_init, mut xp_init) = (vec![0.0; nm], vec![0.0; nm]);
+        let (mut mas_m, mut cel, mut enx) = (Vec::new(), Vec::new(), Vec::new());
         for (s, &i) in order.iter().enumerate() {
             let m = &net.materials[i];
-            let (x0, xm1) = m.initial_state();
-            e.x_init[s] = x0;
-            e.xp_init[s] = xm1;
+            (x_init[s], xp_init[s]) = m.initial_state();
             match m {
-                Material::Mas { m, .. } => {
-                    e.n_mas += 1;
-                    e.mas_m.push(*m);
-                }
-                Material::Cel { m, k, z, r, .. } => {
-                    e.n_cel += 1;
-                    e.cel.push(Cel {
-                        m: *m,
-                        a: 2.0 - (k + z) / m,
-                        b: z / m - 1.0,
-                        r: *r,
-                    });
-                }
-                Material::Enx { signal } => e.enx.push(signal.clone()),
+                Material::Mas { m, .. } => mas_m.push(*m),
+                Material::Cel { m, k, z, r, .. } => cel.push(Cel {
+                    m: *m,
+                    a: 2.0 - (k + z) / m,
+                    b: z / m - 1.0,
+                    r: *r,
+                }),
+                Material::Enx { signal } => enx.push(signal.clone()),
                 Material::Sol { .. } => {}
             }
         }
+        let n_mas = mas_m.len();
+        let n_mc = n_mas + cel.len();
+        let n_mce = n_mc + enx.len();
+        let mas = match mas_m.first() {
+            Some(&m0) if mas_m.iter().all(|m| m.to_bits() == m0.to_bits()) => {
+                if is_power_of_two(m0) {
+                    MasLaw::UniformInv(1.0 / m0)
+                } else {
+                    MasLaw::UniformDiv(m0)
+                }
+            }
+            _ if mas_m.iter().all(|&m| is_power_of_two(m)) => {
+                MasLaw::Inv(mas_m.iter().map(|m| 1.0 / m).collect())
+            }
+            _ => MasLaw::Div(mas_m),
+        };
+
         let slot_of = |id: MatId| -> u32 {
             assert!(
                 id.index() < nm,
                 "link or input refers to material #{} of {nm}",
                 id.0
             );
-            e.slot[id.index()]
+            slot[id.index()]
         };
         let nl = net.links.len();
         let (mut la, mut lb) = (Vec::with_capacity(nl), Vec::with_capacity(nl));
         let (mut lk, mut lz, mut ls) = (vec![0.0; nl], vec![0.0; nl], vec![0.0; nl]);
         let mut curves = vec![(Curve::zero(), Curve::zero()); nl];
-        let mut runs: Vec<Run> = Vec::new();
+        let mut laws = Vec::with_capacity(nl);
         for (l, link) in net.links.iter().enumerate() {
             la.push(slot_of(link.a));
             lb.push(slot_of(link.b));
-            let law = match &link.law {
+            laws.push(match &link.law {
                 Interaction::Res { k } => {
                     lk[l] = *k;
                     Law::Res
@@ -262,20 +834,204 @@ impl Engine {
                     curves[l] = (ck.clone(), cz.clone());
                     Law::Lnl
                 }
-            };
-            match runs.last_mut() {
-                Some(r) if r.law == law => r.end = l + 1,
-                _ => runs.push(Run {
+            });
+        }
+        // Runs: maximal stretches of one law; within them, stretches of identical parameters
+        // long enough to pay become uniform runs.
+        let same = |i: usize, j: usize| {
+            laws[i] == laws[j]
+                && lk[i].to_bits() == lk[j].to_bits()
+                && lz[i].to_bits() == lz[j].to_bits()
+                && ls[i].to_bits() == ls[j].to_bits()
+                && same_curve(&curves[i].0, &curves[j].0)
+                && same_curve(&curves[i].1, &curves[j].1)
+        };
+        let mut runs: Vec<Run> = Vec::new();
+        let mut l = 0;
+        while l < nl {
+            let mut e = l + 1;
+            while e < nl && same(l, e) {
+                e += 1;
+            }
+            let law = laws[l];
+            if e - l >= UNIFORM_MIN {
+                runs.push(Run {
                     law,
                     start: l,
-                    end: l + 1,
-                }),
+                    end: e,
+                    uniform: true,
+                    ends: Ends::Indexed,
+                    neg: false,
+                });
+            } else {
+                match runs.last_mut() {
+                    Some(r) if !r.uniform && r.law == law => r.end = e,
+                    _ => runs.push(Run {
+                        law,
+                        start: l,
+                        end: e,
+                        uniform: false,
+                        ends: Ends::Indexed,
+                        neg: false,
+                    }),
+                }
+            }
+            l = e;
+        }
+        // LNL laws: one per stretch of identical curves.
+        let mut lnl: Vec<Lnl> = Vec::new();
+        let mut lnl_of = vec![0u32; nl];
+        for l in 0..nl {
+            if laws[l] != Law::Lnl {
+                continue;
+            }
+            if l == 0 || laws[l - 1] != Law::Lnl || !same(l - 1, l) {
+                lnl.push(Lnl::new(&curves[l].0, &curves[l].1));
+            }
+            lnl_of[l] = (lnl.len() - 1) as u32;
+        }
+        drop(curves);
+
+        // Within runs, stretches whose ends are arithmetic progressions need no index.
+        let runs: Vec<Run> = runs
+            .iter()
+            .flat_map(|run| {
+                let (la, lb) = (&la[run.start..run.end], &lb[run.start..run.end]);
+                progressions(la.len(), 2, |i, j| if j == 0 { la[i] } else { lb[i] })
+                    .into_iter()
+                    .map(move |(r, steps)| {
+                        let mut piece = run.cut(run.start + r.start, run.start + r.end);
+                        if let Some(st) = steps {
+                            piece.ends = Ends::Step {
+                                a0: st[0].0,
+                                sa: st[0].1,
+                                b0: st[1].0,
+                                sb: st[1].1,
+                            };
+                        }
+                        piece
+                    })
+            })
+            .collect();
+        for run in &runs {
+            if let Ends::Step { a0, sa, b0, sb } = run.ends {
+                for (i, l) in (run.start..run.end).enumerate() {
+                    let i = i as u32;
+                    assert!(la[l] == a0 + i * sa && lb[l] == b0 + i * sb);
+                }
             }
         }
-        let mut enf_slot = Vec::with_capacity(net.forces.len());
+
+        // ENF inputs on mobile materials; the others act on nothing.
+        let mut enf = Vec::new();
+        let mut enf_slot = Vec::new();
         for fi in &net.forces {
-            enf_slot.push(slot_of(fi.target));
+            let s = slot_of(fi.target) as usize;
+            if s < n_mc {
+                enf.push(fi.signal.clone());
+                enf_slot.push(s);
+            }
         }
+        let sf_len = 2 * nl + enf.len();
+        assert!(
+            sf_len < NEG as usize,
+            "too many interactions for one engine"
+        );
+
+        // Edge lists: for each mobile material, the `sf` slots it sums, in the order of
+        // FORMALISM.md (links in declaration order, end 1 before end 2; then its ENF inputs).
+        let mut eoff = vec![0u32; n_mc + 1];
+        let mut count = |s: u32| {
+            if (s as usize) < n_mc {
+                eoff[s as usize + 1] += 1;
+            }
+        };
+        for l in 0..nl {
+            count(la[l]);
+            count(lb[l]);
+        }
+        for &s in &enf_slot {
+            eoff[s + 1] += 1;
+        }
+        for s in 0..n_mc {
+            eoff[s + 1] += eoff[s];
+        }
+        let mut eidx = vec![0u32; eoff[n_mc] as usize];
+        let mut cursor: Vec<u32> = eoff[..n_mc].to_vec();
+        let mut push = |s: u32, j: usize| {
+            if (s as usize) < n_mc {
+                eidx[cursor[s as usize] as usize] = j as u32;
+                cursor[s as usize] += 1;
+            }
+        };
+        for l in 0..nl {
+            push(la[l], NEG as usize | l); // end 1 receives -f
+            push(lb[l], l); // end 2 receives +f
+        }
+        for (i, &s) in enf_slot.iter().enumerate() {
+            push(s as u32, 2 * nl + i);
+        }
+        let degree = |s: usize| (eoff[s + 1] - eoff[s]) as usize;
+        let mut by_degree: Vec<(Range<usize>, usize)> = Vec::new();
+        for s in 0..n_mas {
+            match by_degree.last_mut() {
+                Some((r, d)) if *d == degree(s) => r.end = s + 1,
+                _ => by_degree.push((s..s + 1, degree(s))),
+            }
+        }
+        let (mut mas_segments, mut streams) = (Vec::new(), Vec::new());
+        for (r, d) in by_degree {
+            let e0 = eoff[r.start] as usize;
+            let edge = |i: usize, j: usize| eidx[e0 + i * d + j];
+            for (p, steps) in progressions(r.len(), d, edge) {
+                let mats = r.start + p.start..r.start + p.end;
+                let seg_streams = steps.map(|st| {
+                    let first = streams.len();
+                    streams.extend(st);
+                    first..streams.len()
+                });
+                if let Some(st) = &seg_streams {
+                    for s in mats.clone() {
+                        for j in 0..d {
+                            let (base, step) = streams[st.start + j];
+                            assert!(
+                                eidx[eoff[s] as usize + j] == base + (s - mats.start) as u32 * step
+                            );
+                        }
+                    }
+                }
+                mas_segments.push(Segment {
+                    mats,
+                    degree: d,
+                    streams: seg_streams,
+                });
+            }
+        }
+        // Materials read through index lists (MAS outside progressions, and CEL) take `-f` from
+        // its own slot rather than negating each term (a sign flip per term costs more than the
+        // store): the links at their end 1 store it.
+        let mut needs_neg = vec![false; nl];
+        let listed = mas_segments
+            .iter()
+            .filter(|g| g.streams.is_none())
+            .map(|g| g.mats.clone())
+            .chain(std::iter::once(n_mas..n_mc));
+        for r in listed {
+            for e in &mut eidx[eoff[r.start] as usize..eoff[r.end] as usize] {
+                if *e & NEG != 0 {
+                    let l = (*e & !NEG) as usize;
+                    *e = (nl + l) as u32;
+                    needs_neg[l] = true;
+                }
+            }
+        }
+        let mut runs = runs;
+        for run in &mut runs {
+            run.neg = needs_neg[run.start..run.end].iter().any(|&n| n);
+        }
+        // The gather reads `sf` unchecked at these indices: make the bound local and obvious.
+        assert!(eidx.iter().all(|&j| ((j & !NEG) as usize) < sf_len));
+
         let check_link = |l: LinkId| -> u32 {
             assert!(l.index() < nl, "output refers to link #{} of {nl}", l.0);
             l.0
@@ -302,223 +1058,368 @@ impl Engine {
                 }
             });
         }
-        (e.runs, e.la, e.lb, e.lk, e.lz, e.ls, e.curves) = (runs, la, lb, lk, lz, ls, curves);
-        if e.mas_m.iter().all(|&m| is_power_of_two(m)) {
-            e.mas_inv = Some(e.mas_m.iter().map(|m| 1.0 / m).collect());
-        }
-        e.enf_slot = enf_slot;
-        e.enf = net.forces.iter().map(|f| f.signal.clone()).collect();
-        e.channels = channels;
-        e.sum_terms = sum_terms;
-        e.reset();
-        e
+        let whole = Part {
+            runs: runs.clone(),
+            enf: 0..enf.len(),
+            mats: 0..n_mce,
+            ..Part::default()
+        };
+        let mut k = Kernel {
+            nm,
+            n_mas,
+            n_mc,
+            n_mce,
+            x_init,
+            xp_init,
+            mas,
+            cel,
+            enx,
+            slot,
+            nl,
+            la,
+            lb,
+            lk,
+            lz,
+            ls,
+            lnl,
+            lnl_of,
+            enf,
+            eoff,
+            eidx,
+            mas_segments,
+            streams,
+            sf_len,
+            channels,
+            sum_terms,
+            whole,
+            parts: Vec::new(),
+        };
+        k.parts = vec![k.whole.clone()];
+        k
     }
 
-    /// Back to the initial conditions, step 0.
-    pub fn reset(&mut self) {
-        self.n = 0;
-        self.x.copy_from_slice(&self.x_init);
-        self.xp.copy_from_slice(&self.xp_init);
-        self.f.fill(0.0);
-        self.lf.fill(0.0);
-        self.blown = None;
-    }
-
-    /// Number of output channels (SOX and SOF, in declaration order).
-    pub fn channels(&self) -> usize {
-        self.channels.len()
-    }
-
-    /// The index `n` of the next step.
-    pub fn step_index(&self) -> u64 {
-        self.n
-    }
-
-    /// Number of material modules.
-    pub fn material_count(&self) -> usize {
-        self.x.len()
-    }
-
-    /// `x(n)` of a material module, `n` being [`Engine::step_index`].
-    pub fn position(&self, m: MatId) -> f64 {
-        self.x[self.slot[m.index()] as usize]
-    }
-
-    /// `x(n-1)` of a material module.
-    pub fn previous_position(&self, m: MatId) -> f64 {
-        self.xp[self.slot[m.index()] as usize]
-    }
-
-    /// `f(n-1)`: the force the interaction computed at the last step (0 before the first).
-    pub fn link_force(&self, l: LinkId) -> f64 {
-        self.lf[l.index()]
-    }
-
-    /// Steps `frames` times, writing one frame of [`Engine::channels`] values per step into `out`
-    /// (frames interleaved over channels). Never allocates.
+    /// Cuts links, inputs and materials into `threads` parts of about equal cost.
     ///
-    /// After every block the positions are checked; if one is not finite, the block is replayed
-    /// from a snapshot to find the first step and module that went bad, and a [`BlowUp`] is
-    /// returned. The engine then refuses to step until [`Engine::reset`].
-    ///
-    /// # Panics
-    /// If `out.len() != frames * self.channels()`.
-    #[track_caller]
-    pub fn process(&mut self, frames: usize, out: &mut [f64]) -> Result<(), BlowUp> {
-        self.process_observed(frames, out, &mut |_: &StepView<'_>| {})
-    }
-
-    /// [`Engine::process`], calling `observe` after every step with a view of the state (for
-    /// event logs and energy meters). With a no-op observer this is exactly `process`.
-    ///
-    /// The observer sees each step once, in order. When a block blows up it has also seen the
-    /// steps of that block up to its end (non-finite values included): discard what it gathered.
-    #[track_caller]
-    pub fn process_observed<O: FnMut(&StepView<'_>)>(
-        &mut self,
-        frames: usize,
-        out: &mut [f64],
-        observe: &mut O,
-    ) -> Result<(), BlowUp> {
-        let ch = self.channels.len();
-        assert_eq!(
-            out.len(),
-            frames * ch,
-            "output buffer must hold frames * channels values"
-        );
-        if let Some(b) = self.blown {
-            return Err(BlowUp {
-                valid_frames: 0,
-                ..b
-            });
-        }
-        self.snap_x.copy_from_slice(&self.x);
-        self.snap_xp.copy_from_slice(&self.xp);
-        let n0 = self.n;
-        for frame in 0..frames {
-            self.step(&mut out[frame * ch..(frame + 1) * ch]);
-            observe(&StepView {
-                n: self.n - 1,
-                slot: &self.slot,
-                x: &self.x,
-                xp: &self.xp,
-                lf: &self.lf,
-            });
-        }
-        if self.x.iter().all(|v| v.is_finite()) {
-            return Ok(());
-        }
-        // Replay the block one step at a time to find the first bad step and module.
-        self.n = n0;
-        self.x.copy_from_slice(&self.snap_x);
-        self.xp.copy_from_slice(&self.snap_xp);
-        self.f.fill(0.0);
-        for frame in 0..frames {
-            self.step(&mut out[frame * ch..(frame + 1) * ch]);
-            if let Some(bad) = self.first_non_finite() {
-                out[(frame + 1) * ch..].fill(0.0);
-                let b = BlowUp {
-                    step: self.n,
-                    material: bad,
-                    valid_frames: frame + 1,
-                };
-                self.blown = Some(b);
-                return Err(b);
+    /// Materials and inputs: contiguous ranges. Links: each goes to the thread that owns its end 2
+    /// (or its end 1, when end 2 is not mobile), so that the thread that sums a material's terms
+    /// mostly wrote them itself, and reads the positions it wrote: on a string or a membrane only
+    /// the links that cross a boundary between parts move between cores. Force slots that share a
+    /// cache line all go to one thread (`line` is the slot offset of `sf` within its cache line),
+    /// so that two cores never write one line in the same phase (on a membrane, every column of
+    /// links is cut between two threads). When that cuts the runs into short pieces (a network
+    /// without locality, where it would not help) or unbalances the threads by more than a quarter,
+    /// links are cut into contiguous ranges of declaration order instead. Either way the arithmetic
+    /// is the same: the links phase accumulates nothing.
+    fn partition(&self, threads: usize, line: usize) -> Vec<Part> {
+        let enf = split(self.enf.len(), threads, |_| 1);
+        let mats = split(self.n_mce, threads, |s| {
+            if s < self.n_mc {
+                2 + u64::from(self.eoff[s + 1] - self.eoff[s])
+            } else {
+                4 // ENX: a signal
             }
-        }
-        unreachable!("a replay from the same state must reproduce the same non-finite position")
-    }
-
-    /// The forces of the links of the last step, in declaration order.
-    pub fn link_forces(&self) -> &[f64] {
-        &self.lf
-    }
-
-    fn first_non_finite(&self) -> Option<MatId> {
-        self.slot
-            .iter()
-            .position(|&s| !self.x[s as usize].is_finite())
-            .map(|i| MatId(i as u32))
-    }
-
-    /// One step: link forces, accumulation, inputs, outputs, material update.
-    #[inline]
-    fn step(&mut self, frame: &mut [f64]) {
-        let n = self.n;
-
-        // 1-2. Interaction forces f(n) from x(n), x(n-1), added to the ends in declaration order
-        // (end 1 gets -f, end 2 gets +f); then the ENF inputs.
-        for run in &self.runs {
-            let r = run.start..run.end;
-            let (la, lb, lf) = (
-                &self.la[r.clone()],
-                &self.lb[r.clone()],
-                &mut self.lf[r.clone()],
-            );
-            let state = State {
-                x: &self.x,
-                xp: &self.xp,
+        });
+        let mut parts: Vec<Part> = enf
+            .into_iter()
+            .zip(mats)
+            .map(|(enf, mats)| Part {
+                enf,
+                mats,
+                ..Part::default()
+            })
+            .collect();
+        if threads > 1 && self.nl > 0 {
+            let owner_of = |s: u32| {
+                let s = s as usize;
+                (s < self.n_mc).then(|| parts.iter().position(|p| p.mats.contains(&s)))?
             };
-            let f = &mut self.f;
-            match run.law {
-                Law::Res => {
-                    for (((&a, &b), out), &k) in la.iter().zip(lb).zip(lf).zip(&self.lk[r]) {
-                        let fl = k * state.d(a, b);
-                        *out = fl;
-                        add(f, a, b, fl);
-                    }
-                }
-                Law::Fro => {
-                    for (((&a, &b), out), &z) in la.iter().zip(lb).zip(lf).zip(&self.lz[r]) {
-                        let fl = z * state.v(a, b);
-                        *out = fl;
-                        add(f, a, b, fl);
-                    }
-                }
-                Law::Ref => {
-                    for ((((&a, &b), out), &k), &z) in la
-                        .iter()
-                        .zip(lb)
-                        .zip(lf)
-                        .zip(&self.lk[r.clone()])
-                        .zip(&self.lz[r])
-                    {
-                        let fl = k * state.d(a, b) + z * state.v(a, b);
-                        *out = fl;
-                        add(f, a, b, fl);
-                    }
-                }
-                Law::But => {
-                    let (lk, lz, ls) = (&self.lk[r.clone()], &self.lz[r.clone()], &self.ls[r]);
-                    for (i, ((&a, &b), out)) in la.iter().zip(lb).zip(lf).enumerate() {
-                        let (k, z, s) = (lk[i], lz[i], ls[i]);
-                        let fl = if state.x(b) - state.x(a) < s {
-                            k * (state.d(a, b) + s) + z * state.v(a, b)
-                        } else {
-                            0.0
-                        };
-                        *out = fl;
-                        add(f, a, b, fl);
-                    }
-                }
-                Law::Lnl => {
-                    for (((&a, &b), out), (ck, cz)) in
-                        la.iter().zip(lb).zip(lf).zip(&self.curves[r])
-                    {
-                        let fl = ck.eval(state.d(a, b)) + cz.eval(state.v(a, b));
-                        *out = fl;
-                        add(f, a, b, fl);
+            let by_ends = |l: usize| {
+                owner_of(self.lb[l])
+                    .or_else(|| owner_of(self.la[l]))
+                    .unwrap_or(l * threads / self.nl) // both ends fixed: by position
+            };
+            // the owner of the first slot of the cache line of slot `l`
+            let owner = |l: usize| by_ends(((l + line) / 8 * 8).saturating_sub(line));
+            let mut pieces: Vec<(usize, Run)> = Vec::new();
+            for run in &self.whole.runs {
+                let mut start = run.start;
+                let mut t = owner(start);
+                for l in run.start + 1..=run.end {
+                    let u = if l < run.end { owner(l) } else { usize::MAX };
+                    if u != t {
+                        pieces.push((t, run.cut(start, l)));
+                        (start, t) = (l, u);
                     }
                 }
             }
+            let mut cost = vec![0u64; threads];
+            for (t, r) in &pieces {
+                cost[*t] += r.law.cost() * (r.end - r.start) as u64;
+            }
+            let mean = cost.iter().sum::<u64>() / threads as u64;
+            let balanced = cost.iter().all(|&c| c <= mean + mean / 4 + 8);
+            let long = pieces.len() * 8 <= self.nl;
+            if balanced && long {
+                for (t, r) in pieces {
+                    parts[t].runs.push(r);
+                }
+                for part in &mut parts {
+                    self.chunk(part, line);
+                }
+                return parts;
+            }
         }
-        let (f, lf) = (&mut self.f, &self.lf);
-        for (&s, sig) in self.enf_slot.iter().zip(&self.enf) {
-            f[s as usize] += sig.at(n);
+        let mut cost_of = Vec::with_capacity(self.nl);
+        for r in &self.whole.runs {
+            cost_of.extend(std::iter::repeat_n(r.law.cost(), r.end - r.start));
         }
+        // (these cuts may share a cache line: two per thread, not one per column)
+        for (part, links) in parts
+            .iter_mut()
+            .zip(split(self.nl, threads, |l| cost_of[l]))
+        {
+            part.runs = self
+                .whole
+                .runs
+                .iter()
+                .filter(|r| r.start < links.end && r.end > links.start)
+                .map(|r| r.cut(r.start.max(links.start), r.end.min(links.end)))
+                .collect();
+            self.chunk(part, line);
+        }
+        parts
+    }
 
-        // 3. Outputs record x(n) and f(n).
-        let (x, terms) = (&self.x, &self.sum_terms);
+    /// Cuts a part's runs and materials into chunks of about equal cost (see [`CHUNK_COST`]);
+    /// runs are cut where a cache line of force slots starts (`line` as in `partition`), so that
+    /// two threads working on neighbouring chunks do not write one line.
+    fn chunk(&self, part: &mut Part, line: usize) {
+        let cost = |r: &Run| r.law.cost() * (r.end - r.start) as u64;
+        let total: u64 = part.runs.iter().map(cost).sum();
+        let count = (total / CHUNK_COST).clamp(1, CHUNKS_MAX);
+        let (mut runs, mut chunks) = (Vec::with_capacity(part.runs.len()), Vec::new());
+        let (mut acc, mut first, mut k) = (0u64, 0usize, 1u64);
+        for run in std::mem::take(&mut part.runs) {
+            let mut run = run;
+            loop {
+                let target = total * k / count;
+                if k < count && acc + cost(&run) > target {
+                    // cut where the target is reached, at the next cache line
+                    let need = target.saturating_sub(acc).div_ceil(run.law.cost()) as usize;
+                    let at = (run.start + need + line).div_ceil(8) * 8 - line;
+                    if run.start < at && at < run.end {
+                        let head = run.cut(run.start, at);
+                        acc += cost(&head);
+                        runs.push(head);
+                        run = run.cut(at, run.end);
+                    }
+                    chunks.push(first..runs.len());
+                    first = runs.len();
+                    k += 1;
+                    continue;
+                }
+                acc += cost(&run);
+                runs.push(run);
+                break;
+            }
+        }
+        chunks.push(first..runs.len());
+        chunks.retain(|c| !c.is_empty());
+        part.runs = runs;
+        part.link_chunks = chunks;
+        let mats = part.mats.clone();
+        let mat_cost = |s: usize| {
+            if s < self.n_mc {
+                2 + u64::from(self.eoff[s + 1] - self.eoff[s])
+            } else {
+                4
+            }
+        };
+        let total: u64 = mats.clone().map(mat_cost).sum();
+        let count = (total / CHUNK_COST).clamp(1, CHUNKS_MAX) as usize;
+        part.mat_chunks = split(mats.len(), count, |i| mat_cost(mats.start + i))
+            .into_iter()
+            .map(|r| mats.start + r.start / 8 * 8..mats.start + r.end / 8 * 8)
+            .collect();
+        if let Some(last) = part.mat_chunks.last_mut() {
+            last.end = mats.end; // (the rounding leaves the tail to the last chunk)
+        }
+        part.mat_chunks.retain(|c| !c.is_empty());
+    }
+
+    /// Phase 1, single-threaded: the forces of every link into `lf` (and `-f` into `nf` for the
+    /// runs that need it), and the samples of every ENF input into `ef`.
+    #[inline]
+    fn links_phase(
+        &self,
+        n: u64,
+        cur: &[f64],
+        prev: &[f64],
+        lf: &mut [f64],
+        nf: &mut [f64],
+        ef: &mut [f64],
+    ) {
+        let state = Positions::new(self, cur, prev);
+        for run in &self.whole.runs {
+            let r = run.start..run.end;
+            let nf = run.neg.then(|| &mut nf[r.clone()]);
+            self.run_links(run, &state, &mut lf[r], nf);
+        }
+        self.inputs(0..self.enf.len(), n, ef);
+    }
+
+    /// The samples `n` of the ENF inputs `r` into `ef` (exactly `r`'s slots).
+    #[inline]
+    fn inputs(&self, r: Range<usize>, n: u64, ef: &mut [f64]) {
+        for (v, sig) in ef.iter_mut().zip(&self.enf[r]) {
+            *v = sig.at(n);
+        }
+    }
+
+    /// The forces of one run of links.
+    #[inline]
+    fn run_links(&self, run: &Run, st: &Positions<'_>, lf: &mut [f64], nf: Option<&mut [f64]>) {
+        let r = run.start..run.end;
+        let s0 = run.start;
+        // Each law as a function of (x1(n), x1(n-1), x2(n), x2(n-1)), with the expressions of
+        // FORMALISM.md: d = x1 - x2, v = (x1 - x1') - (x2 - x2').
+        match (run.law, run.uniform) {
+            (Law::Res, true) => {
+                let k = self.lk[s0];
+                self.each(run, st, lf, nf, |_, xa, _, xb, _| k * (xa - xb));
+            }
+            (Law::Res, false) => {
+                let lk = &self.lk[r];
+                self.each(run, st, lf, nf, |i, xa, _, xb, _| lk[i] * (xa - xb));
+            }
+            (Law::Fro, true) => {
+                let z = self.lz[s0];
+                self.each(run, st, lf, nf, |_, xa, pa, xb, pb| {
+                    z * ((xa - pa) - (xb - pb))
+                });
+            }
+            (Law::Fro, false) => {
+                let lz = &self.lz[r];
+                self.each(run, st, lf, nf, |i, xa, pa, xb, pb| {
+                    lz[i] * ((xa - pa) - (xb - pb))
+                });
+            }
+            (Law::Ref, true) => {
+                let (k, z) = (self.lk[s0], self.lz[s0]);
+                self.each(run, st, lf, nf, |_, xa, pa, xb, pb| {
+                    k * (xa - xb) + z * ((xa - pa) - (xb - pb))
+                });
+            }
+            (Law::Ref, false) => {
+                let (lk, lz) = (&self.lk[r.clone()], &self.lz[r]);
+                self.each(run, st, lf, nf, |i, xa, pa, xb, pb| {
+                    lk[i] * (xa - xb) + lz[i] * ((xa - pa) - (xb - pb))
+                });
+            }
+            (Law::But, true) => {
+                let (k, z, s) = (self.lk[s0], self.lz[s0], self.ls[s0]);
+                self.each(run, st, lf, nf, |_, xa, pa, xb, pb| {
+                    but(xa, pa, xb, pb, k, z, s)
+                });
+            }
+            (Law::But, false) => {
+                let (lk, lz, ls) = (&self.lk[r.clone()], &self.lz[r.clone()], &self.ls[r]);
+                self.each(run, st, lf, nf, |i, xa, pa, xb, pb| {
+                    but(xa, pa, xb, pb, lk[i], lz[i], ls[i])
+                });
+            }
+            (Law::Lnl, true) => match &self.lnl[self.lnl_of[s0] as usize] {
+                Lnl::Small4(ck, cz) => self.each(run, st, lf, nf, |_, xa, pa, xb, pb| {
+                    ck.eval(xa - xb) + cz.eval((xa - pa) - (xb - pb))
+                }),
+                law => self.each(run, st, lf, nf, |_, xa, pa, xb, pb| {
+                    law.force(xa - xb, (xa - pa) - (xb - pb))
+                }),
+            },
+            (Law::Lnl, false) => {
+                let (lnl, of) = (&self.lnl, &self.lnl_of[r]);
+                self.each(run, st, lf, nf, |i, xa, pa, xb, pb| {
+                    lnl[of[i] as usize].force(xa - xb, (xa - pa) - (xb - pb))
+                });
+            }
+        }
+    }
+
+    /// Runs `force(i, x1(n), x1(n-1), x2(n), x2(n-1))` for every link `i` of `run`, storing `f`
+    /// into `lf` and, when given, `-f` into `nf` (both exactly the run's range).
+    #[inline(always)]
+    fn each(
+        &self,
+        run: &Run,
+        st: &Positions<'_>,
+        lf: &mut [f64],
+        nf: Option<&mut [f64]>,
+        force: impl Fn(usize, f64, f64, f64, f64) -> f64,
+    ) {
+        match nf {
+            None => self.each_into(run, st, lf, |_, _| {}, force),
+            Some(nf) => {
+                let nf = &mut nf[..run.end - run.start];
+                self.each_into(run, st, lf, |i, f| nf[i] = -f, force);
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn each_into(
+        &self,
+        run: &Run,
+        st: &Positions<'_>,
+        lf: &mut [f64],
+        mut also: impl FnMut(usize, f64),
+        force: impl Fn(usize, f64, f64, f64, f64) -> f64,
+    ) {
+        let n = run.end - run.start;
+        let lf = &mut lf[..n];
+        match run.ends {
+            Ends::Indexed => {
+                let (la, lb) = (&self.la[run.start..run.end], &self.lb[run.start..run.end]);
+                for (i, ((&a, &b), f)) in la.iter().zip(lb).zip(lf.iter_mut()).enumerate() {
+                    *f = force(i, st.x(a), st.xp(a), st.x(b), st.xp(b));
+                    also(i, *f);
+                }
+            }
+            Ends::Step {
+                a0,
+                sa: 1,
+                b0,
+                sb: 1,
+            } => {
+                // contiguous: plain slices (checked once here), which the compiler vectorises
+                let (a, b) = (a0 as usize..a0 as usize + n, b0 as usize..b0 as usize + n);
+                let (xa, pa, xb, pb) = (&st.x[a.clone()], &st.xp[a], &st.x[b.clone()], &st.xp[b]);
+                for (i, (((f, &xa), &pa), (&xb, &pb))) in lf
+                    .iter_mut()
+                    .zip(xa)
+                    .zip(pa)
+                    .zip(xb.iter().zip(pb))
+                    .enumerate()
+                {
+                    *f = force(i, xa, pa, xb, pb);
+                    also(i, *f);
+                }
+            }
+            Ends::Step { a0, sa, b0, sb } => {
+                let (mut a, mut b) = (a0, b0);
+                for (i, f) in lf.iter_mut().enumerate() {
+                    *f = force(i, st.x(a), st.xp(a), st.x(b), st.xp(b));
+                    also(i, *f);
+                    a = a.wrapping_add(sa);
+                    b = b.wrapping_add(sb);
+                }
+            }
+        }
+    }
+
+    /// Outputs record `x(n)` and `f(n)`.
+    #[inline]
+    fn record(&self, x: &[f64], lf: &[f64], frame: &mut [f64]) {
+        let terms = &self.sum_terms;
         let term = |t: &Term| match *t {
             Term::Position(s) => x[s as usize],
             Term::Force(l) => lf[l as usize],
@@ -537,55 +1438,285 @@ impl Engine {
                 }
             };
         }
-
-        // 4. Materials compute x(n+1).
-        let (x, xp) = (&mut self.x, &mut self.xp);
-        let nm = self.n_mas;
-        let mas = x[..nm].iter_mut().zip(&mut xp[..nm]).zip(&mut f[..nm]);
-        match &self.mas_inv {
-            Some(inv) => {
-                for (((xi, xpi), fi), &im) in mas.zip(inv) {
-                    let next = 2.0 * *xi - *xpi + *fi * im;
-                    *xpi = *xi;
-                    *xi = next;
-                    *fi = 0.0;
-                }
-            }
-            None => {
-                for (((xi, xpi), fi), &m) in mas.zip(&self.mas_m) {
-                    let next = 2.0 * *xi - *xpi + *fi / m;
-                    *xpi = *xi;
-                    *xi = next;
-                    *fi = 0.0;
-                }
-            }
-        }
-        let cel_end = nm + self.n_cel;
-        for (((xi, xpi), fi), c) in x[nm..cel_end]
-            .iter_mut()
-            .zip(&mut xp[nm..cel_end])
-            .zip(&mut f[nm..cel_end])
-            .zip(&self.cel)
-        {
-            let next = c.r + c.a * (*xi - c.r) + c.b * (*xpi - c.r) + *fi / c.m;
-            *xpi = *xi;
-            *xi = next;
-            *fi = 0.0;
-        }
-        let enx_end = cel_end + self.enx.len();
-        for (((xi, xpi), fi), sig) in x[cel_end..enx_end]
-            .iter_mut()
-            .zip(&mut xp[cel_end..enx_end])
-            .zip(&mut f[cel_end..enx_end])
-            .zip(&self.enx)
-        {
-            *xpi = *xi;
-            *xi = sig.at(n + 1);
-            *fi = 0.0;
-        }
-        f[enx_end..].fill(0.0); // SOL: forces discarded, position unchanged
-        self.n = n + 1;
     }
+
+    /// Phase 2 for materials `mats` (storage slots within `0..n_mce`): each sums its forces and
+    /// writes `x(n+1)` over `x(n-1)` in `next`, which is exactly `mats` of the `x(n-1)` buffer.
+    #[inline]
+    fn materials_phase(
+        &self,
+        mats: Range<usize>,
+        n: u64,
+        cur: &[f64],
+        next: &mut [f64],
+        sf: Forces<'_>,
+    ) {
+        assert!(next.len() == mats.len() && sf.0.len() == self.sf_len);
+        let m0 = mats.start;
+        let within = |r: Range<usize>| {
+            let start = r.start.max(mats.start);
+            start..r.end.min(mats.end).max(start)
+        };
+        let mas = within(0..self.n_mas);
+        if !mas.is_empty() {
+            let next = &mut next[mas.start - m0..mas.end - m0];
+            self.update_mas(mas.clone(), &cur[mas], next, sf);
+        }
+        let cel = within(self.n_mas..self.n_mc);
+        if !cel.is_empty() {
+            let next = &mut next[cel.start - m0..cel.end - m0];
+            let params = &self.cel[cel.start - self.n_mas..cel.end - self.n_mas];
+            let edges = self.csr(cel.clone());
+            for (((p, &x), e), c) in next.iter_mut().zip(&cur[cel]).zip(edges).zip(params) {
+                let f = sum(e, sf);
+                *p = c.r + c.a * (x - c.r) + c.b * (*p - c.r) + f / c.m;
+            }
+        }
+        let enx = within(self.n_mc..self.n_mce);
+        if !enx.is_empty() {
+            let next = &mut next[enx.start - m0..enx.end - m0];
+            let sigs = &self.enx[enx.start - self.n_mc..enx.end - self.n_mc];
+            for (p, sig) in next.iter_mut().zip(sigs) {
+                *p = sig.at(n + 1);
+            }
+        }
+    }
+
+    /// The edge lists of materials `r`, from the offsets.
+    #[inline]
+    fn csr(&self, r: Range<usize>) -> impl Iterator<Item = &[u32]> + '_ {
+        self.eoff[r.start..=r.end]
+            .windows(2)
+            .map(|w| &self.eidx[w[0] as usize..w[1] as usize])
+    }
+
+    /// MAS `r` (storage slots): `x(n+1) = 2 x(n) - x(n-1) + F(n) / M`, one segment at a time.
+    #[inline]
+    fn update_mas(&self, r: Range<usize>, cur: &[f64], next: &mut [f64], sf: Forces<'_>) {
+        for seg in &self.mas_segments {
+            let (start, end) = (seg.mats.start.max(r.start), seg.mats.end.min(r.end));
+            if start >= end {
+                continue;
+            }
+            let local = start - r.start..end - r.start;
+            let (cur, next) = (&cur[local.clone()], &mut next[local]);
+            let d = seg.degree;
+            let Some(streams) = &seg.streams else {
+                let e0 = self.eoff[start] as usize;
+                let edges = &self.eidx[e0..e0 + d * (end - start)];
+                match d {
+                    1 => self.mas_with(start..end, cur, next, sf, edges.chunks_exact(1), sum),
+                    2 => self.mas_with(start..end, cur, next, sf, edges.chunks_exact(2), sum),
+                    3 => self.mas_with(start..end, cur, next, sf, edges.chunks_exact(3), sum),
+                    4 => self.mas_with(start..end, cur, next, sf, edges.chunks_exact(4), sum),
+                    5 => self.mas_with(start..end, cur, next, sf, edges.chunks_exact(5), sum),
+                    6 => self.mas_with(start..end, cur, next, sf, edges.chunks_exact(6), sum),
+                    _ => self.mas_with(start..end, cur, next, sf, self.csr(start..end), sum),
+                }
+                continue;
+            };
+            // progressions: edge j of the i-th MAS from `start` is `base_j + i step_j`
+            let i0 = (start - seg.mats.start) as u32;
+            let streams = &self.streams[streams.clone()];
+            let unit = streams.iter().all(|&(_, step)| step == 1);
+            // (slot, step, negated) of each stream from `start` on; the sign of a stream is
+            // constant, so `f - t` (exactly the reference's `F -= f`) is chosen outside the loop
+            let term = |j: usize| {
+                let (base, step) = streams[j];
+                let (slot, mask) = signed(base + i0 * step);
+                (slot, step, mask != 0)
+            };
+            let n = end - start;
+            match (d, unit) {
+                (0, _) => self.mas_with(start..end, cur, next, sf, 0..n, |_, _| 0.0),
+                (2, true) => {
+                    // contiguous: the two terms of each sum are slices of `sf` (a string)
+                    let ((e0, _, n0), (e1, _, n1)) = (term(0), term(1));
+                    let (e0, e1) = (e0 as usize, e1 as usize);
+                    let terms = sf.0[e0..e0 + n].iter().zip(&sf.0[e1..e1 + n]);
+                    macro_rules! two {
+                        ($op0:tt, $op1:tt) => {
+                            self.mas_with(start..end, cur, next, sf, terms, |(&t0, &t1), _| {
+                                let mut f = 0.0;
+                                f $op0 t0;
+                                f $op1 t1;
+                                f
+                            })
+                        };
+                    }
+                    match (n0, n1) {
+                        (false, true) => two!(+=, -=), // a string: from the left, to the right
+                        (true, false) => two!(-=, +=),
+                        (false, false) => two!(+=, +=),
+                        (true, true) => two!(-=, -=),
+                    }
+                }
+                (4, _)
+                    if [term(0).2, term(1).2, term(2).2, term(3).2]
+                        == [false, true, false, true] =>
+                {
+                    // a membrane: from the left, to the right, from above, to below
+                    let [a, b, c, e] = [0, 1, 2, 3].map(term);
+                    self.mas_with(start..end, cur, next, sf, 0..n, |i, sf| {
+                        let i = i as u32;
+                        let mut f = 0.0;
+                        f += sf.get(a.0 + i * a.1);
+                        f -= sf.get(b.0 + i * b.1);
+                        f += sf.get(c.0 + i * c.1);
+                        f -= sf.get(e.0 + i * e.1);
+                        f
+                    });
+                }
+                _ => {
+                    self.mas_with(start..end, cur, next, sf, 0..n, |i, sf| {
+                        let i = i as u32;
+                        let mut f = 0.0;
+                        for j in 0..d {
+                            let (slot, step, neg) = term(j);
+                            let t = sf.get(slot + i * step);
+                            if neg {
+                                f -= t;
+                            } else {
+                                f += t;
+                            }
+                        }
+                        f
+                    });
+                }
+            }
+        }
+    }
+
+    /// The MAS loop over `r`: `next` holds `x(n-1)` on entry and `x(n+1)` on exit; `force(e, sf)`
+    /// is `F(n)` of the MAS whose item of `edges` is `e`.
+    #[inline(always)]
+    fn mas_with<E>(
+        &self,
+        r: Range<usize>,
+        cur: &[f64],
+        next: &mut [f64],
+        sf: Forces<'_>,
+        edges: impl Iterator<Item = E>,
+        force: impl Fn(E, Forces<'_>) -> f64,
+    ) {
+        let items = next.iter_mut().zip(cur).zip(edges);
+        match &self.mas {
+            MasLaw::UniformInv(inv) => {
+                for ((p, &x), e) in items {
+                    *p = 2.0 * x - *p + force(e, sf) * inv;
+                }
+            }
+            MasLaw::UniformDiv(m) => {
+                for ((p, &x), e) in items {
+                    *p = 2.0 * x - *p + force(e, sf) / m;
+                }
+            }
+            MasLaw::Inv(inv) => {
+                for (((p, &x), e), inv) in items.zip(&inv[r]) {
+                    *p = 2.0 * x - *p + force(e, sf) * inv;
+                }
+            }
+            MasLaw::Div(ms) => {
+                for (((p, &x), e), m) in items.zip(&ms[r]) {
+                    *p = 2.0 * x - *p + force(e, sf) / m;
+                }
+            }
+        }
+    }
+}
+
+/// BUT: active while `x2 - x1 < S`, then `K (d + S) + Z v`.
+#[inline(always)]
+fn but(xa: f64, pa: f64, xb: f64, pb: f64, k: f64, z: f64, s: f64) -> f64 {
+    if xb - xa < s {
+        k * ((xa - xb) + s) + z * ((xa - pa) - (xb - pb))
+    } else {
+        0.0
+    }
+}
+
+/// `F(n)`: from `+0.0`, the terms of one material in its edge order.
+#[inline(always)]
+fn sum(edges: &[u32], sf: Forces<'_>) -> f64 {
+    let mut f = 0.0;
+    for &j in edges {
+        f += sf.get(j);
+    }
+    f
+}
+
+/// Cuts `0..len` into stretches where each of the `width` columns `get(i, j)` is an arithmetic
+/// progression with a non-negative step, `(first, step)`, at least [`STEP_MIN`] long; the rest into
+/// stretches without (`None`). In order, covering `0..len`.
+#[allow(clippy::type_complexity)]
+fn progressions(
+    len: usize,
+    width: usize,
+    get: impl Fn(usize, usize) -> u32,
+) -> Vec<(Range<usize>, Option<Vec<(u32, u32)>>)> {
+    let mut out: Vec<(Range<usize>, Option<Vec<(u32, u32)>>)> = Vec::new();
+    let mut i = 0;
+    while i < len {
+        let steps: Option<Vec<u32>> = (i + 1 < len)
+            .then(|| {
+                (0..width)
+                    .map(|j| get(i + 1, j).checked_sub(get(i, j)))
+                    .collect()
+            })
+            .flatten();
+        let mut e = i + 1;
+        if let Some(steps) = &steps {
+            let on = |e: usize, j: usize| {
+                u64::from(get(e, j)) == u64::from(get(i, j)) + (e - i) as u64 * u64::from(steps[j])
+            };
+            while e < len && (0..width).all(|j| on(e, j)) {
+                e += 1;
+            }
+        }
+        match steps {
+            Some(steps) if e - i >= STEP_MIN => {
+                out.push((
+                    i..e,
+                    Some((0..width).map(|j| (get(i, j), steps[j])).collect()),
+                ));
+                i = e;
+            }
+            _ => {
+                match out.last_mut() {
+                    Some((r, None)) => r.end = i + 1,
+                    _ => out.push((i..i + 1, None)),
+                }
+                i += 1;
+            }
+        }
+    }
+    out
+}
+
+/// Cuts `0..len` into `parts` contiguous ranges of about equal total `cost`.
+fn split(len: usize, parts: usize, cost: impl Fn(usize) -> u64) -> Vec<Range<usize>> {
+    let total: u128 = (0..len).map(|i| u128::from(cost(i))).sum();
+    let mut ranges = Vec::with_capacity(parts);
+    let (mut start, mut i, mut acc) = (0, 0, 0u128);
+    for t in 1..=parts {
+        let target = total * t as u128 / parts as u128;
+        while i < len && acc < target {
+            acc += u128::from(cost(i));
+            i += 1;
+        }
+        let end = if t == parts { len } else { i };
+        ranges.push(start..end);
+        start = end;
+    }
+    ranges
+}
+
+/// Two curves with the same points, bit for bit (so they evaluate identically).
+fn same_curve(a: &Curve, b: &Curve) -> bool {
+    a.len() == b.len()
+        && a.points()
+            .zip(b.points())
+            .all(|(p, q)| p.0.to_bits() == q.0.to_bits() && p.1.to_bits() == q.1.to_bits())
 }
 
 /// True when `m` is a (normal) power of two, so that `f / m == f * (1 / m)` for every `f`: both are
@@ -602,17 +1733,26 @@ fn is_power_of_two(m: f64) -> bool {
 
 /// Read access to the positions by storage slot, for the link loops.
 ///
-/// Every slot handed to these methods comes from `Engine::la`/`Engine::lb`, which `Engine::new`
-/// fills only with `slot_of(..)` values, each asserted `< materials.len()`; `x` and `xp` have
-/// exactly `materials.len()` elements and are never resized. So every access is in bounds, and the
-/// unchecked reads below are sound. `tests/engine.rs` (`engine_refuses_foreign_ids`) checks that a
+/// Every slot handed to these methods is an entry of `Kernel::la`/`Kernel::lb`, which
+/// `Kernel::new` fills only with `slot_of(..)` values, each asserted `< materials.len()`, or a term
+/// `a0 + i sa` of an `Ends::Step` run, which `Kernel::new` asserts equal to the entry of `la`/`lb` it
+/// replaces; `Positions::new` asserts that `x` and `xp` have exactly `materials.len()` elements. So
+/// every access is in bounds, and the unchecked reads below are sound. `tests/engine.rs` (`engine_refuses_foreign_ids`) checks that a
 /// network with an out-of-range id is refused by `Engine::new` before any step.
-struct State<'a> {
+struct Positions<'a> {
     x: &'a [f64],
     xp: &'a [f64],
 }
 
-impl State<'_> {
+impl<'a> Positions<'a> {
+    /// # Panics
+    /// Unless both buffers have one element per material.
+    #[inline]
+    fn new(k: &Kernel, x: &'a [f64], xp: &'a [f64]) -> Positions<'a> {
+        assert!(x.len() == k.nm && xp.len() == k.nm);
+        Positions { x, xp }
+    }
+
     #[inline(always)]
     fn x(&self, i: u32) -> f64 {
         debug_assert!((i as usize) < self.x.len());
@@ -626,28 +1766,395 @@ impl State<'_> {
         // SAFETY: as for `x`; `xp` has the same length.
         unsafe { *self.xp.get_unchecked(i as usize) }
     }
+}
 
-    /// `d = x1(n) - x2(n)`.
-    #[inline(always)]
-    fn d(&self, a: u32, b: u32) -> f64 {
-        self.x(a) - self.x(b)
-    }
+/// Read access to the whole `sf` buffer by edge index, for the gather.
+///
+/// Every index handed to `get` is an entry of `Kernel::eidx` (outside the progressions, where
+/// there is no `NEG`), which `Kernel::new` asserts to be `< sf_len` once `NEG` is cleared, or, with
+/// `NEG` cleared, a term `base + i step` of a segment's progression, which `Kernel::new` asserts
+/// equal to the entry of `eidx` it replaces; `materials_phase` asserts that the slice has exactly `sf_len` elements (it is always
+/// the whole `State::sf`, allocated with that length and never resized). So every read is in
+/// bounds. `tests/engine.rs` and `tests/parallel.rs` step every module type through this path.
+#[derive(Clone, Copy)]
+struct Forces<'a>(&'a [f64]);
 
-    /// `v = (x1(n) - x1(n-1)) - (x2(n) - x2(n-1))`.
+/// The bit of an edge that says "negate the slot" (the material is end 1 of the link).
+const NEG: u32 = 1 << 31;
+
+impl Forces<'_> {
+    /// Slot `j` (without `NEG`).
     #[inline(always)]
-    fn v(&self, a: u32, b: u32) -> f64 {
-        (self.x(a) - self.xp(a)) - (self.x(b) - self.xp(b))
+    fn get(&self, j: u32) -> f64 {
+        debug_assert!((j as usize) < self.0.len());
+        // SAFETY: `j` is a validated slot (see the type's documentation).
+        unsafe { *self.0.get_unchecked(j as usize) }
     }
 }
 
-/// End 1 receives `-fl`, end 2 receives `+fl`.
+/// `(slot, sign mask)` of an edge: the slot without `NEG`, and the bit to flip the sign by
+/// (negation is exact).
 #[inline(always)]
-fn add(f: &mut [f64], a: u32, b: u32, fl: f64) {
-    debug_assert!((a as usize) < f.len() && (b as usize) < f.len());
-    // SAFETY: `a` and `b` are validated storage slots (see `State`), and `f` has one element per
-    // material, like `x`.
-    unsafe {
-        *f.get_unchecked_mut(a as usize) -= fl;
-        *f.get_unchecked_mut(b as usize) += fl;
+fn signed(j: u32) -> (u32, u64) {
+    (j & !NEG, u64::from(j >> 31) << 63)
+}
+
+/// One block stepped by the pool's threads in lock-step (see `parallel.rs` for the discipline).
+///
+/// The work of a phase is cut into chunks: the link chunks of every part (runs, whose slots `l`
+/// and `nl + l` of `sf` they write) and its material chunks (storage slots, whose next position
+/// they write in `pos[c ^ 1]`). Each thread claims its own part's chunks first, then whatever is
+/// left of the others' (so a thread that is slower, for whatever reason, is helped rather than
+/// waited for); [`Claim::next`] hands each chunk to exactly one thread per step. Thread `t` also
+/// writes the slots `2 nl + enf` of its part, and copies `mats` of its part into the snapshot
+/// before the first step. Per step `n`, with `c = n & 1`:
+///
+/// | phase | reads (everyone) | writes (the claimer of a chunk only) |
+/// | --- | --- | --- |
+/// | links (then barrier) | `pos[c]`, `pos[c ^ 1]` | the chunk's slots of `sf` |
+/// | materials (then barrier) | `pos[c]`, `sf`; the chunk's slots of `pos[c ^ 1]` | the chunk's slots of `pos[c ^ 1]` |
+///
+/// Thread 0 also records the outputs during the materials phase: it reads only `pos[c]` and the
+/// `+f` slots of `sf`, which nobody writes in that phase. The snapshot copies read the position
+/// buffers, which nobody writes before the first barrier. So within a phase no element is written
+/// by one thread and accessed by another, and the barriers order the phases.
+///
+/// Which thread computes a chunk changes no bit of the result: a link's force and a material's
+/// sum and update are each computed from the same inputs in the same order, whoever does it.
+struct Job<'a> {
+    k: &'a Kernel,
+    pos: [SharedBuf; 2],
+    sf: SharedBuf,
+    snap: [SharedBuf; 2],
+    claims: &'a [Claim],
+    n0: u64,
+    frames: usize,
+    channels: usize,
+}
+
+impl Task for Job<'_> {
+    fn run(&self, t: usize, barrier: &SpinBarrier) -> Result<(), Poisoned> {
+        self.run_part(t, None, barrier)
+    }
+}
+
+impl Job<'_> {
+    fn run_part(
+        &self,
+        t: usize,
+        mut out: Option<&mut [f64]>,
+        barrier: &SpinBarrier,
+    ) -> Result<(), Poisoned> {
+        let k = self.k;
+        let part = &k.parts[t];
+        let nl = k.nl;
+        let mats = part.mats.clone();
+        let c0 = (self.n0 & 1) as usize;
+        // SAFETY (all blocks below): each access follows the table in the type's documentation:
+        // shared reads of buffers nobody writes in the current phase, exclusive writes to the
+        // ranges of a chunk this thread claimed (disjoint from every other chunk's:
+        // `Kernel::partition` gives each link to exactly one part and `Kernel::chunk` each run
+        // piece and material of a part to exactly one chunk, and `0..enf.len()` and `0..n_mce`
+        // are cut into consecutive ranges; `parts_own_every_link_once` tests it), and every slice
+        // is dropped before the barrier that ends its phase.
+        unsafe {
+            let (x, xp) = (self.pos[c0].read(), self.pos[c0 ^ 1].read());
+            self.snap[0]
+                .write(mats.clone())
+                .copy_from_slice(&x[mats.clone()]);
+            self.snap[1]
+                .write(mats.clone())
+                .copy_from_slice(&xp[mats.clone()]);
+        }
+        let parts = &k.parts;
+        let threads = parts.len();
+        for s in 0..self.frames {
+            let n = self.n0 + s as u64;
+            let c = (n & 1) as usize;
+            // SAFETY: links phase (see above).
+            unsafe {
+                let (cur, prev) = (self.pos[c].read(), self.pos[c ^ 1].read());
+                let state = Positions::new(k, cur, prev);
+                // own chunks first, then the others' that are left
+                for q in (t..t + threads).map(|q| q % threads) {
+                    let chunks = &parts[q].link_chunks;
+                    let base = s * chunks.len();
+                    while let Some(i) = self.claims[q].next(base + chunks.len()) {
+                        for run in &parts[q].runs[chunks[i - base].clone()] {
+                            let lf = self.sf.write(run.start..run.end);
+                            let nf = run.neg.then(|| self.sf.write(nl + run.start..nl + run.end));
+                            k.run_links(run, &state, lf, nf);
+                        }
+                    }
+                }
+                let ef = self
+                    .sf
+                    .write(2 * nl + part.enf.start..2 * nl + part.enf.end);
+                k.inputs(part.enf.clone(), n, ef);
+            }
+            barrier.wait()?;
+            // SAFETY: materials phase (see above).
+            unsafe {
+                let (cur, sf) = (self.pos[c].read(), self.sf.read());
+                if let Some(out) = out.as_deref_mut() {
+                    let ch = self.channels;
+                    k.record(cur, &sf[..nl], &mut out[s * ch..(s + 1) * ch]);
+                }
+                for q in (t..t + threads).map(|q| q % threads) {
+                    let chunks = &parts[q].mat_chunks;
+                    let base = s * chunks.len();
+                    while let Some(i) = self.claims[threads + q].next(base + chunks.len()) {
+                        let mats = chunks[i - base].clone();
+                        let next = self.pos[c ^ 1].write(mats.clone());
+                        k.materials_phase(mats, n, cur, next, Forces(sf));
+                    }
+                }
+            }
+            barrier.wait()?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn split_covers_everything_in_order_and_balances_cost() {
+        for (len, parts) in [(0, 3), (1, 4), (10, 2), (1000, 3), (7, 7)] {
+            let r = split(len, parts, |i| 1 + (i % 3) as u64);
+            assert_eq!(r.len(), parts);
+            assert_eq!(r[0].start, 0);
+            assert_eq!(r[parts - 1].end, len);
+            for w in r.windows(2) {
+                assert_eq!(w[0].end, w[1].start);
+            }
+        }
+        let r = split(1000, 2, |_| 1);
+        assert_eq!(r, [0..500, 500..1000]);
+        let r = split(4, 2, |i| if i == 0 { 3 } else { 1 });
+        assert_eq!(r, [0..1, 1..4]);
+    }
+
+    /// A small network of every module type, stepped on 1, 2 and 3 threads: small enough for
+    /// `cargo +nightly miri test -p cordis-core --lib`, which checks the threaded path (the
+    /// `SharedBuf` phase discipline of `Job`) for data races and aliasing violations.
+    #[test]
+    fn threads_give_the_single_thread_output_on_a_small_network() {
+        let mut net = Network::new();
+        let g = net.add_material(Material::Sol { x0: 0.0 });
+        // (an envelope rather than a sine: Miri perturbs `sin` at random, as platforms may differ)
+        let hand = net.add_material(Material::Enx {
+            signal: Signal::Envelope(
+                Curve::new(&[(0.0, 0.0), (10.0, 0.1), (30.0, -0.05)]).unwrap_or_default(),
+            ),
+        });
+        let mut prev = g;
+        let mut ids = Vec::new();
+        for i in 0..12 {
+            let m = if i % 5 == 2 {
+                net.add_material(Material::Cel {
+                    m: 1.5,
+                    k: 0.01,
+                    z: 1e-3,
+                    x0: 0.1,
+                    v0: 0.0,
+                    r: 0.0,
+                })
+            } else {
+                net.add_material(Material::Mas {
+                    m: 1.0 + 0.25 * (i % 3) as f64,
+                    x0: 0.0,
+                    v0: 0.01 * i as f64,
+                })
+            };
+            let law = match i % 5 {
+                0 => Interaction::Ref { k: 0.1, z: 1e-3 },
+                1 => Interaction::Res { k: 0.05 },
+                2 => Interaction::Fro { z: 1e-2 },
+                3 => Interaction::But {
+                    k: 0.1,
+                    z: 1e-3,
+                    s: 0.01,
+                },
+                _ => Interaction::Lnl {
+                    lk: Curve::new(&[(-1.0, -0.1), (1.0, 0.1)]).unwrap_or_default(),
+                    lz: Curve::zero(),
+                },
+            };
+            let l = net.add_link(law, prev, m);
+            net.add_force_output(l);
+            net.add_position_output(m);
+            ids.push(m);
+            prev = m;
+        }
+        net.add_link(Interaction::Ref { k: 0.1, z: 1e-3 }, hand, ids[6]);
+        net.add_force(ids[3], Signal::Noise { seed: 1, amp: 1e-3 });
+        let steps = 40;
+        let render = |threads: usize, block: usize| {
+            let mut e = Engine::new(&net);
+            e.set_parallel_threshold(0);
+            e.set_threads(threads);
+            assert_eq!(e.is_parallel(), threads > 1);
+            let ch = e.channels();
+            let mut out = vec![0.0; steps * ch];
+            for chunk in out.chunks_mut(block * ch) {
+                assert!(e.process(chunk.len() / ch, chunk).is_ok());
+            }
+            out.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+        };
+        let one = render(1, steps);
+        for threads in [2, 3] {
+            for block in [1, 7, steps] {
+                assert!(
+                    one == render(threads, block),
+                    "{threads} threads, block {block}"
+                );
+            }
+        }
+    }
+
+    /// The parts own every link exactly once, in runs that agree with the whole network's, and
+    /// cut the inputs and the materials into consecutive ranges.
+    fn check_parts(k: &Kernel, threads: usize) -> Vec<Part> {
+        let parts = k.partition(threads, 3);
+        assert_eq!(parts.len(), threads);
+        let mut owned = vec![0u32; k.nl];
+        for p in &parts {
+            for r in &p.runs {
+                assert!(r.start < r.end);
+                let whole = k
+                    .whole
+                    .runs
+                    .iter()
+                    .find(|w| w.start <= r.start && r.end <= w.end);
+                let whole = whole.expect("a piece of one run");
+                assert_eq!((r.law, r.uniform), (whole.law, whole.uniform));
+                if let Ends::Step { a0, sa, b0, sb } = r.ends {
+                    for (i, l) in (r.start..r.end).enumerate() {
+                        assert_eq!(k.la[l], a0 + i as u32 * sa);
+                        assert_eq!(k.lb[l], b0 + i as u32 * sb);
+                    }
+                }
+                for o in &mut owned[r.start..r.end] {
+                    *o += 1;
+                }
+            }
+        }
+        assert!(owned.iter().all(|&c| c == 1), "every link exactly once");
+        for p in &parts {
+            let mut next = 0;
+            for c in &p.link_chunks {
+                assert!(c.start == next && c.start < c.end);
+                next = c.end;
+            }
+            assert_eq!(next, p.runs.len(), "the link chunks cover the runs");
+            let mut next = p.mats.start;
+            for c in &p.mat_chunks {
+                assert!(c.start == next && c.start < c.end);
+                next = c.end;
+            }
+            assert!(
+                next == p.mats.end || p.mats.is_empty(),
+                "the chunks cover the materials"
+            );
+        }
+        let (mut m, mut e) = (0, 0);
+        for p in &parts {
+            assert_eq!((p.mats.start, p.enf.start), (m, e));
+            (m, e) = (p.mats.end, p.enf.end);
+        }
+        assert_eq!((m, e), (k.n_mce, k.enf.len()));
+        parts
+    }
+
+    #[test]
+    #[allow(clippy::needless_range_loop)] // `l` indexes three arrays
+    fn parts_own_every_link_once() {
+        // a star of 30 links on one mass: by owner, all would go to one thread (contiguous instead)
+        let mut net = Network::new();
+        let a = net.add_material(Material::Mas {
+            m: 1.0,
+            x0: 0.0,
+            v0: 0.0,
+        });
+        let b = net.add_material(Material::Sol { x0: 0.0 });
+        for i in 0..30 {
+            let law = if i < 20 {
+                Interaction::Ref { k: 0.1, z: 0.0 }
+            } else {
+                Interaction::Res { k: 0.1 * i as f64 }
+            };
+            net.add_link(law, a, b);
+        }
+        let k = Kernel::new(&net);
+        assert_eq!(k.whole.runs.len(), 2);
+        assert!(k.whole.runs[0].uniform && !k.whole.runs[1].uniform);
+        for threads in 1..=5 {
+            let parts = check_parts(&k, threads);
+            let links = |p: &Part| p.runs.iter().map(|r| r.end - r.start).sum::<usize>();
+            assert!(
+                parts.iter().all(|p| links(p) <= 30 / threads + 8),
+                "balanced"
+            );
+        }
+        // a membrane: by owner, so that the rows of each thread keep their links
+        let (rows, cols) = (40, 60);
+        let mut net = Network::new();
+        let g = net.add_material(Material::Sol { x0: 0.0 });
+        let m: Vec<MatId> = (0..rows * cols)
+            .map(|_| {
+                net.add_material(Material::Mas {
+                    m: 1.0,
+                    x0: 0.0,
+                    v0: 0.0,
+                })
+            })
+            .collect();
+        let law = Interaction::Ref { k: 0.1, z: 1e-4 };
+        for r in 0..rows {
+            net.add_link(law.clone(), g, m[r * cols]);
+            for c in 0..cols - 1 {
+                net.add_link(law.clone(), m[r * cols + c], m[r * cols + c + 1]);
+            }
+        }
+        for c in 0..cols {
+            net.add_link(law.clone(), g, m[c]);
+            for r in 0..rows - 1 {
+                net.add_link(law.clone(), m[r * cols + c], m[(r + 1) * cols + c]);
+            }
+        }
+        let k = Kernel::new(&net);
+        for threads in 1..=4 {
+            check_parts(&k, threads);
+        }
+        // (with 4 threads of 10 rows the cache lines unbalance the threads: contiguous links)
+        for threads in 2..=3 {
+            let parts = check_parts(&k, threads);
+            let mut owner = vec![0; k.nl];
+            let (mut local, mut all) = (0, 0);
+            for (t, p) in parts.iter().enumerate() {
+                for r in &p.runs {
+                    for l in r.start..r.end {
+                        owner[l] = t;
+                        all += 1;
+                        local += usize::from(p.mats.contains(&(k.lb[l] as usize)));
+                    }
+                }
+            }
+            // the links of each thread end in its rows, but for a few where a cache line of force
+            // slots is shared: then the whole line goes to one thread (`check_parts` used `line` 3)
+            assert!(
+                local * 100 >= all * 85,
+                "{local} of {all} links in their thread's rows"
+            );
+            for line in owner[5..].chunks(8) {
+                assert!(
+                    line.iter().all(|&t| t == line[0]),
+                    "a cache line for one thread"
+                );
+            }
+        }
     }
 }

@@ -13,6 +13,9 @@
 //! - [`Engine`]: the same network compiled once into dense struct-of-arrays state, then stepped
 //!   block by block into caller buffers without allocating.
 //!
+//! A large network can be stepped on several threads ([`Engine::set_threads`]); the output is the
+//! same, bit for bit, whatever the number of threads or the block size.
+//!
 //! ```
 //! use cordis_core::{Engine, Interaction, Material, Network, Signal};
 //!
@@ -34,6 +37,7 @@
 mod curve;
 mod engine;
 mod network;
+mod parallel;
 mod signal;
 
 pub use curve::{Curve, CurveError};
