@@ -249,6 +249,8 @@ struct Kernel {
     // outputs
     channels: Vec<Channel>,
     sum_terms: Vec<(f64, Term)>,
+    /// the vector instructions the stepping loops are compiled for (detected once, in `new`)
+    simd: Simd,
     /// one part with everything: the single-thread step
     whole: Part,
     /// one part per thread (see `Engine::set_threads`)
@@ -561,20 +563,14 @@ impl Engine {
         }
         self.st.take_snapshot(self.k.n_mce);
         let n0 = self.st.n;
-        for frame in 0..frames {
-            self.st
-                .step(&self.k, &mut out[frame * ch..(frame + 1) * ch]);
-            let n = self.st.n;
-            let [p0, p1] = &self.st.pos;
-            let (x, xp) = if n & 1 == 0 { (p0, p1) } else { (p1, p0) };
-            observe(&StepView {
-                n: n - 1,
-                slot: &self.k.slot,
-                x,
-                xp,
-                lf: &self.st.sf[..self.k.nl],
-            });
-        }
+        let block = Block {
+            k: &self.k,
+            st: &mut self.st,
+            frames,
+            out,
+            observe,
+        };
+        vectorised(self.k.simd, block);
         self.check_block(n0, frames, out)
     }
 
@@ -610,7 +606,15 @@ impl Engine {
                 frames,
                 channels: ch,
             };
-            let r = pool.run(&job, |barrier| job.run_part(0, Some(out), barrier));
+            let r = pool.run(&job, |barrier| {
+                let share = Share {
+                    job: &job,
+                    t: 0,
+                    out: Some(out),
+                    barrier,
+                };
+                vectorised(job.k.simd, share)
+            });
             r.and_then(|()| {
                 if pool.is_poisoned() {
                     Err(Poisoned)
@@ -700,7 +704,7 @@ impl State {
     }
 
     /// One step on the calling thread: link forces, outputs, material update.
-    #[inline]
+    #[inline(always)]
     fn step(&mut self, k: &Kernel, frame: &mut [f64]) {
         let n = self.n;
         let [p0, p1] = &mut self.pos;
@@ -1091,6 +1095,7 @@ impl Kernel {
             sf_len,
             channels,
             sum_terms,
+            simd: Simd::detect(),
             whole,
             parts: Vec::new(),
         };
@@ -1249,7 +1254,7 @@ impl Kernel {
 
     /// Phase 1, single-threaded: the forces of every link into `lf` (and `-f` into `nf` for the
     /// runs that need it), and the samples of every ENF input into `ef`.
-    #[inline]
+    #[inline(always)]
     fn links_phase(
         &self,
         n: u64,
@@ -1269,7 +1274,7 @@ impl Kernel {
     }
 
     /// The samples `n` of the ENF inputs `r` into `ef` (exactly `r`'s slots).
-    #[inline]
+    #[inline(always)]
     fn inputs(&self, r: Range<usize>, n: u64, ef: &mut [f64]) {
         for (v, sig) in ef.iter_mut().zip(&self.enf[r]) {
             *v = sig.at(n);
@@ -1277,7 +1282,7 @@ impl Kernel {
     }
 
     /// The forces of one run of links.
-    #[inline]
+    #[inline(always)]
     fn run_links(&self, run: &Run, st: &Positions<'_>, lf: &mut [f64], nf: Option<&mut [f64]>) {
         let r = run.start..run.end;
         let s0 = run.start;
@@ -1417,7 +1422,7 @@ impl Kernel {
     }
 
     /// Outputs record `x(n)` and `f(n)`.
-    #[inline]
+    #[inline(always)]
     fn record(&self, x: &[f64], lf: &[f64], frame: &mut [f64]) {
         let terms = &self.sum_terms;
         let term = |t: &Term| match *t {
@@ -1442,7 +1447,7 @@ impl Kernel {
 
     /// Phase 2 for materials `mats` (storage slots within `0..n_mce`): each sums its forces and
     /// writes `x(n+1)` over `x(n-1)` in `next`, which is exactly `mats` of the `x(n-1)` buffer.
-    #[inline]
+    #[inline(always)]
     fn materials_phase(
         &self,
         mats: Range<usize>,
@@ -1483,7 +1488,7 @@ impl Kernel {
     }
 
     /// The edge lists of materials `r`, from the offsets.
-    #[inline]
+    #[inline(always)]
     fn csr(&self, r: Range<usize>) -> impl Iterator<Item = &[u32]> + '_ {
         self.eoff[r.start..=r.end]
             .windows(2)
@@ -1491,7 +1496,7 @@ impl Kernel {
     }
 
     /// MAS `r` (storage slots): `x(n+1) = 2 x(n) - x(n-1) + F(n) / M`, one segment at a time.
-    #[inline]
+    #[inline(always)]
     fn update_mas(&self, r: Range<usize>, cur: &[f64], next: &mut [f64], sf: Forces<'_>) {
         for seg in &self.mas_segments {
             let (start, end) = (seg.mats.start.max(r.start), seg.mats.end.min(r.end));
@@ -1622,6 +1627,119 @@ impl Kernel {
                 }
             }
         }
+    }
+}
+
+/// The widest vector instructions of this CPU that the stepping loops are compiled for. The
+/// loops never fuse a multiply and an add (Rust does not contract floating-point expressions),
+/// so every width computes the same IEEE operations on the same values: the same bits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Simd {
+    None,
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
+}
+
+impl Simd {
+    fn detect() -> Simd {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::is_x86_feature_detected!("avx512f") {
+                return Simd::Avx512;
+            }
+            if std::is_x86_feature_detected!("avx2") {
+                return Simd::Avx2;
+            }
+        }
+        Simd::None
+    }
+}
+
+/// Work that [`vectorised`] compiles for a vector width: `run` and everything it calls on the
+/// stepping path are `#[inline(always)]`, so they are inlined into (and compiled with the target
+/// features of) the function that calls `run`.
+trait Vectorised {
+    type Output;
+    fn run(self) -> Self::Output;
+}
+
+/// Runs `work`, compiled for the vector instructions `simd` names.
+#[inline(always)]
+fn vectorised<W: Vectorised>(simd: Simd, work: W) -> W::Output {
+    #[cfg(target_arch = "x86_64")]
+    {
+        #[target_feature(enable = "avx2")]
+        fn avx2<W: Vectorised>(work: W) -> W::Output {
+            work.run()
+        }
+        #[target_feature(enable = "avx512f")]
+        fn avx512<W: Vectorised>(work: W) -> W::Output {
+            work.run()
+        }
+        match simd {
+            // SAFETY: `Simd::detect` found the feature on this CPU (an engine is never moved to
+            // another machine while it runs).
+            Simd::Avx512 => return unsafe { avx512(work) },
+            // SAFETY: as above.
+            Simd::Avx2 => return unsafe { avx2(work) },
+            Simd::None => {}
+        }
+    }
+    work.run()
+}
+
+/// The block loop of [`Engine::process_observed`].
+struct Block<'a, 'o, O> {
+    k: &'a Kernel,
+    st: &'a mut State,
+    frames: usize,
+    out: &'a mut [f64],
+    observe: &'o mut O,
+}
+
+impl<O: FnMut(&StepView<'_>)> Vectorised for Block<'_, '_, O> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        let Block {
+            k,
+            st,
+            frames,
+            out,
+            observe,
+        } = self;
+        let ch = k.channels.len();
+        for frame in 0..frames {
+            st.step(k, &mut out[frame * ch..(frame + 1) * ch]);
+            let n = st.n;
+            let [p0, p1] = &st.pos;
+            let (x, xp) = if n & 1 == 0 { (p0, p1) } else { (p1, p0) };
+            observe(&StepView {
+                n: n - 1,
+                slot: &k.slot,
+                x,
+                xp,
+                lf: &st.sf[..k.nl],
+            });
+        }
+    }
+}
+
+/// One thread's share of a parallel block.
+struct Share<'a, 'j> {
+    job: &'a Job<'j>,
+    t: usize,
+    out: Option<&'a mut [f64]>,
+    barrier: &'a SpinBarrier,
+}
+
+impl Vectorised for Share<'_, '_> {
+    type Output = Result<(), Poisoned>;
+    #[inline(always)]
+    fn run(self) -> Result<(), Poisoned> {
+        self.job.run_part(self.t, self.out, self.barrier)
     }
 }
 
@@ -1834,11 +1952,18 @@ struct Job<'a> {
 
 impl Task for Job<'_> {
     fn run(&self, t: usize, barrier: &SpinBarrier) -> Result<(), Poisoned> {
-        self.run_part(t, None, barrier)
+        let share = Share {
+            job: self,
+            t,
+            out: None,
+            barrier,
+        };
+        vectorised(self.k.simd, share)
     }
 }
 
 impl Job<'_> {
+    #[inline(always)]
     fn run_part(
         &self,
         t: usize,
