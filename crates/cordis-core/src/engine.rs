@@ -249,6 +249,8 @@ struct Kernel {
     // outputs
     channels: Vec<Channel>,
     sum_terms: Vec<(f64, Term)>,
+    /// storage slot of each link, by declaration index (see [`link_order`])
+    lslot: Vec<u32>,
     /// the vector instructions the stepping loops are compiled for (detected once, in `new`)
     simd: Simd,
     /// one part with everything: the single-thread step
@@ -276,6 +278,7 @@ struct State {
 pub struct StepView<'a> {
     n: u64,
     slot: &'a [u32],
+    lslot: &'a [u32],
     x: &'a [f64],
     xp: &'a [f64],
     lf: &'a [f64],
@@ -299,7 +302,7 @@ impl StepView<'_> {
 
     /// `f(n)` of an interaction.
     pub fn link_force(&self, l: LinkId) -> f64 {
-        self.lf[l.index()]
+        self.lf[self.lslot[l.index()] as usize]
     }
 }
 
@@ -509,12 +512,7 @@ impl Engine {
 
     /// `f(n-1)`: the force the interaction computed at the last step (0 before the first).
     pub fn link_force(&self, l: LinkId) -> f64 {
-        self.link_forces()[l.index()]
-    }
-
-    /// The forces of the links of the last step, in declaration order.
-    pub fn link_forces(&self) -> &[f64] {
-        &self.st.sf[..self.k.nl]
+        self.st.sf[self.k.lslot[l.index()] as usize]
     }
 
     /// Steps `frames` times, writing one frame of [`Engine::channels`] values per step into `out`
@@ -810,11 +808,17 @@ impl Kernel {
             slot[id.index()]
         };
         let nl = net.links.len();
+        let lslot = link_order(net, &slot);
+        let mut by_slot = vec![0usize; nl];
+        for (d, &l) in lslot.iter().enumerate() {
+            by_slot[l as usize] = d;
+        }
         let (mut la, mut lb) = (Vec::with_capacity(nl), Vec::with_capacity(nl));
         let (mut lk, mut lz, mut ls) = (vec![0.0; nl], vec![0.0; nl], vec![0.0; nl]);
         let mut curves = vec![(Curve::zero(), Curve::zero()); nl];
         let mut laws = Vec::with_capacity(nl);
-        for (l, link) in net.links.iter().enumerate() {
+        for (l, &d) in by_slot.iter().enumerate() {
+            let link = &net.links[d];
             la.push(slot_of(link.a));
             lb.push(slot_of(link.b));
             laws.push(match &link.law {
@@ -968,7 +972,9 @@ impl Kernel {
                 cursor[s as usize] += 1;
             }
         };
-        for l in 0..nl {
+        for &l in &lslot {
+            // in declaration order
+            let l = l as usize;
             push(la[l], NEG as usize | l); // end 1 receives -f
             push(lb[l], l); // end 2 receives +f
         }
@@ -1029,16 +1035,30 @@ impl Kernel {
                 }
             }
         }
-        let mut runs = runs;
-        for run in &mut runs {
-            run.neg = needs_neg[run.start..run.end].iter().any(|&n| n);
-        }
+        // (a run is cut where that need changes: one listed material at the end of a string
+        // must not make the whole string store `-f`)
+        let runs: Vec<Run> = runs
+            .iter()
+            .flat_map(|run| {
+                let mut pieces = Vec::new();
+                let mut start = run.start;
+                for l in run.start + 1..=run.end {
+                    if l == run.end || needs_neg[l] != needs_neg[start] {
+                        let mut piece = run.cut(start, l);
+                        piece.neg = needs_neg[start];
+                        pieces.push(piece);
+                        start = l;
+                    }
+                }
+                pieces
+            })
+            .collect();
         // The gather reads `sf` unchecked at these indices: make the bound local and obvious.
         assert!(eidx.iter().all(|&j| ((j & !NEG) as usize) < sf_len));
 
         let check_link = |l: LinkId| -> u32 {
             assert!(l.index() < nl, "output refers to link #{} of {nl}", l.0);
-            l.0
+            lslot[l.index()]
         };
         let mut sum_terms = Vec::new();
         let mut channels = Vec::with_capacity(net.outputs.len());
@@ -1095,6 +1115,7 @@ impl Kernel {
             sf_len,
             channels,
             sum_terms,
+            lslot,
             simd: Simd::detect(),
             whole,
             parts: Vec::new(),
@@ -1534,44 +1555,12 @@ impl Kernel {
             let n = end - start;
             match (d, unit) {
                 (0, _) => self.mas_with(start..end, cur, next, sf, 0..n, |_, _| 0.0),
-                (2, true) => {
-                    // contiguous: the two terms of each sum are slices of `sf` (a string)
-                    let ((e0, _, n0), (e1, _, n1)) = (term(0), term(1));
-                    let (e0, e1) = (e0 as usize, e1 as usize);
-                    let terms = sf.0[e0..e0 + n].iter().zip(&sf.0[e1..e1 + n]);
-                    macro_rules! two {
-                        ($op0:tt, $op1:tt) => {
-                            self.mas_with(start..end, cur, next, sf, terms, |(&t0, &t1), _| {
-                                let mut f = 0.0;
-                                f $op0 t0;
-                                f $op1 t1;
-                                f
-                            })
-                        };
-                    }
-                    match (n0, n1) {
-                        (false, true) => two!(+=, -=), // a string: from the left, to the right
-                        (true, false) => two!(-=, +=),
-                        (false, false) => two!(+=, +=),
-                        (true, true) => two!(-=, -=),
-                    }
-                }
-                (4, _)
-                    if [term(0).2, term(1).2, term(2).2, term(3).2]
-                        == [false, true, false, true] =>
-                {
-                    // a membrane: from the left, to the right, from above, to below
-                    let [a, b, c, e] = [0, 1, 2, 3].map(term);
-                    self.mas_with(start..end, cur, next, sf, 0..n, |i, sf| {
-                        let i = i as u32;
-                        let mut f = 0.0;
-                        f += sf.get(a.0 + i * a.1);
-                        f -= sf.get(b.0 + i * b.1);
-                        f += sf.get(c.0 + i * c.1);
-                        f -= sf.get(e.0 + i * e.1);
-                        f
-                    });
-                }
+                (1, true) => self.mas_unit::<1>(start..end, cur, next, sf, term),
+                (2, true) => self.mas_unit::<2>(start..end, cur, next, sf, term),
+                (3, true) => self.mas_unit::<3>(start..end, cur, next, sf, term),
+                (4, true) => self.mas_unit::<4>(start..end, cur, next, sf, term),
+                (5, true) => self.mas_unit::<5>(start..end, cur, next, sf, term),
+                (6, true) => self.mas_unit::<6>(start..end, cur, next, sf, term),
                 _ => {
                     self.mas_with(start..end, cur, next, sf, 0..n, |i, sf| {
                         let i = i as u32;
@@ -1590,6 +1579,34 @@ impl Kernel {
                 }
             }
         }
+    }
+
+    /// MAS `r` whose `D` edges are unit-step progressions (strings, rows of membranes): term `j`
+    /// of the `i`-th MAS is `±sf[slot_j + i]`, `(slot_j, 1, negated_j) = term(j)`, so each term
+    /// is a slice of `sf` and the loop is vectorised. The sign is applied as a multiplication by
+    /// `±1.0` (exact), so the sum is the reference's `F += f` / `F -= f`, term by term in edge order.
+    #[inline(always)]
+    fn mas_unit<const D: usize>(
+        &self,
+        r: Range<usize>,
+        cur: &[f64],
+        next: &mut [f64],
+        sf: Forces<'_>,
+        term: impl Fn(usize) -> (u32, u32, bool),
+    ) {
+        let n = r.len();
+        let terms: [&[f64]; D] = std::array::from_fn(|j| {
+            let s = term(j).0 as usize;
+            &sf.0[s..s + n]
+        });
+        let signs: [f64; D] = std::array::from_fn(|j| if term(j).2 { -1.0 } else { 1.0 });
+        self.mas_with(r, cur, next, sf, 0..n, |i, _| {
+            let mut f = 0.0;
+            for j in 0..D {
+                f += signs[j] * terms[j][i];
+            }
+            f
+        });
     }
 
     /// The MAS loop over `r`: `next` holds `x(n-1)` on entry and `x(n+1)` on exit; `force(e, sf)`
@@ -1719,6 +1736,7 @@ impl<O: FnMut(&StepView<'_>)> Vectorised for Block<'_, '_, O> {
             observe(&StepView {
                 n: n - 1,
                 slot: &k.slot,
+                lslot: &k.lslot,
                 x,
                 xp,
                 lf: &st.sf[..k.nl],
@@ -1835,6 +1853,91 @@ fn same_curve(a: &Curve, b: &Curve) -> bool {
         && a.points()
             .zip(b.points())
             .all(|(p, q)| p.0.to_bits() == q.0.to_bits() && p.1.to_bits() == q.1.to_bits())
+}
+
+/// The storage slot of each link, by declaration index: the order in which the links phase
+/// computes them and their forces are stored. It changes no sum (each material still adds its
+/// terms in declaration order, through its edge list), only which links are neighbours in memory:
+/// links are grouped by law and, where at least [`UNIFORM_MIN`] share them, by parameters; within
+/// a group, links whose ends are the same distance apart in material storage (at least
+/// [`STEP_MIN`] of them) are sorted by their end 1, so that their ends are contiguous (the
+/// horizontal and vertical links of a membrane become two runs of unit-step progressions); the
+/// others keep their declaration order.
+fn link_order(net: &Network, slot: &[u32]) -> Vec<u32> {
+    use std::collections::HashMap;
+    let nl = net.links.len();
+    // parameter classes, numbered by first appearance
+    let mut classes: HashMap<(u8, Vec<u64>), u32> = HashMap::new();
+    let class: Vec<u32> = net
+        .links
+        .iter()
+        .map(|link| {
+            let key = match &link.law {
+                Interaction::Res { k } => (0, vec![k.to_bits()]),
+                Interaction::Fro { z } => (1, vec![z.to_bits()]),
+                Interaction::Ref { k, z } => (2, vec![k.to_bits(), z.to_bits()]),
+                Interaction::But { k, z, s } => (3, vec![k.to_bits(), z.to_bits(), s.to_bits()]),
+                Interaction::Lnl { lk, lz } => {
+                    let mut v = vec![lk.len() as u64];
+                    for c in [lk, lz] {
+                        v.extend(c.points().flat_map(|(x, y)| [x.to_bits(), y.to_bits()]));
+                    }
+                    (4, v)
+                }
+            };
+            let next = classes.len() as u32;
+            *classes.entry(key).or_insert(next)
+        })
+        .collect();
+    let law = |d: usize| match net.links[d].law {
+        Interaction::Res { .. } => 0u8,
+        Interaction::Fro { .. } => 1,
+        Interaction::Ref { .. } => 2,
+        Interaction::But { .. } => 3,
+        Interaction::Lnl { .. } => 4,
+    };
+    let mut members = vec![0usize; classes.len()];
+    for &c in &class {
+        members[c as usize] += 1;
+    }
+    // the group of a link: its law, and its class when that class is big enough
+    let group = |d: usize| {
+        let c = class[d];
+        let c = if members[c as usize] >= UNIFORM_MIN {
+            c
+        } else {
+            u32::MAX
+        };
+        (law(d), c)
+    };
+    // groups in order of first appearance
+    let mut first: HashMap<(u8, u32), usize> = HashMap::new();
+    for d in 0..nl {
+        first.entry(group(d)).or_insert(d);
+    }
+    let group = |d: usize| first[&group(d)];
+    // (a foreign id sorts anywhere: `Kernel::new` refuses it right after)
+    let end = |id: MatId| slot.get(id.index()).map_or(-1, |&s| i64::from(s));
+    let offset = |d: usize| end(net.links[d].b) - end(net.links[d].a);
+    let mut per_offset: HashMap<(usize, i64), usize> = HashMap::new();
+    for d in 0..nl {
+        *per_offset.entry((group(d), offset(d))).or_default() += 1;
+    }
+    let mut order: Vec<usize> = (0..nl).collect();
+    order.sort_by_key(|&d| {
+        let g = group(d);
+        let o = offset(d);
+        if per_offset[&(g, o)] >= STEP_MIN {
+            (g, 0u8, o, end(net.links[d].a), d)
+        } else {
+            (g, 1, 0, 0, d) // declaration order
+        }
+    });
+    let mut lslot = vec![0u32; nl];
+    for (l, &d) in order.iter().enumerate() {
+        lslot[d] = l as u32;
+    }
+    lslot
 }
 
 /// True when `m` is a (normal) power of two, so that `f / m == f * (1 / m)` for every `f`: both are
