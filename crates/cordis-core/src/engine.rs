@@ -24,10 +24,12 @@
 //! one per thread, changes nothing in the arithmetic. With threads, the parts run in lock-step,
 //! one barrier after each phase (see [`crate::parallel`] and [`Job`]).
 //!
-//! Positions live in two buffers that swap roles every step: `pos[n & 1]` holds `x(n)`, the other
-//! `x(n-1)`, which the materials phase overwrites with `x(n+1)` (it reads `x(n-1)` of a material
-//! just before writing that same element). So `x(n)` stays readable for the outputs while the
-//! materials are updated, and a step stores one position per material instead of two.
+//! Positions live in three buffers that take turns: `pos[n % 3]` holds `x(n)`, `pos[(n + 2) % 3]`
+//! `x(n-1)`, and the materials phase writes `x(n+1)` into the third, `pos[(n + 1) % 3]`, which
+//! held `x(n-2)`. Nothing the materials phase reads is written during it, so a material may read
+//! its neighbours' positions (the fused segments, [`FusedSegment`], compute their links' forces
+//! themselves) and `x(n-1)` stays available after the step, for the forces of links that the
+//! links phase skipped (computed on demand by [`Engine::link_force`] and [`StepView::link_force`]).
 
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -251,6 +253,11 @@ struct Kernel {
     sum_terms: Vec<(f64, Term)>,
     /// storage slot of each link, by declaration index (see [`link_order`])
     lslot: Vec<u32>,
+    /// For the links that the links phase skips (their every mobile end is in a fused segment,
+    /// and no output reads them), by slot: the run they belonged to, in `lazy_runs`; `u32::MAX`
+    /// for the others. Empty when no link is skipped.
+    lazy: Vec<u32>,
+    lazy_runs: Vec<Run>,
     /// the vector instructions the stepping loops are compiled for (detected once, in `new`)
     simd: Simd,
     /// one part with everything: the single-thread step
@@ -263,8 +270,9 @@ struct Kernel {
 #[derive(Clone, Debug)]
 struct State {
     n: u64,
-    /// `pos[n & 1]` is `x(n)`, `pos[(n & 1) ^ 1]` is `x(n-1)` (storage order).
-    pos: [Vec<f64>; 2],
+    /// `pos[n % 3]` is `x(n)`, `pos[(n + 2) % 3]` is `x(n-1)`, `pos[(n + 1) % 3]` is `x(n-2)`
+    /// (storage order; SOL positions in all three).
+    pos: [Vec<f64>; 3],
     /// `f(n)` of the links `[0, nl)`, `-f(n)` `[nl, 2 nl)` (for the runs with `neg` only), ENF
     /// samples `[2 nl, ..)`.
     sf: Vec<f64>,
@@ -277,10 +285,11 @@ struct State {
 #[derive(Clone, Copy, Debug)]
 pub struct StepView<'a> {
     n: u64,
-    slot: &'a [u32],
-    lslot: &'a [u32],
+    k: &'a Kernel,
+    /// `x(n+1)`, `x(n)`, `x(n-1)`
     x: &'a [f64],
     xp: &'a [f64],
+    xpp: &'a [f64],
     lf: &'a [f64],
 }
 
@@ -292,17 +301,17 @@ impl StepView<'_> {
 
     /// `x(n)`: the position the interactions of step `n` saw.
     pub fn position(&self, m: MatId) -> f64 {
-        self.xp[self.slot[m.index()] as usize]
+        self.xp[self.k.slot[m.index()] as usize]
     }
 
     /// `x(n+1)`: the position step `n` computed.
     pub fn next_position(&self, m: MatId) -> f64 {
-        self.x[self.slot[m.index()] as usize]
+        self.x[self.k.slot[m.index()] as usize]
     }
 
     /// `f(n)` of an interaction.
     pub fn link_force(&self, l: LinkId) -> f64 {
-        self.lf[self.lslot[l.index()] as usize]
+        self.k.link_force(l, self.xp, self.xpp, self.lf)
     }
 }
 
@@ -414,7 +423,7 @@ impl Engine {
         let nm = k.nm;
         let mut st = State {
             n: 0,
-            pos: [vec![0.0; nm], vec![0.0; nm]],
+            pos: [vec![0.0; nm], vec![0.0; nm], vec![0.0; nm]],
             sf: vec![0.0; k.sf_len],
             snap: [vec![0.0; k.n_mce], vec![0.0; k.n_mce]],
             blown: None,
@@ -512,7 +521,12 @@ impl Engine {
 
     /// `f(n-1)`: the force the interaction computed at the last step (0 before the first).
     pub fn link_force(&self, l: LinkId) -> f64 {
-        self.st.sf[self.k.lslot[l.index()] as usize]
+        if self.st.n == 0 {
+            return 0.0;
+        }
+        let r = Roles::of(self.st.n);
+        let (xp, xpp) = (&self.st.pos[r.prev], &self.st.pos[r.next]);
+        self.k.link_force(l, xp, xpp, &self.st.sf[..self.k.nl])
     }
 
     /// Steps `frames` times, writing one frame of [`Engine::channels`] values per step into `out`
@@ -590,13 +604,13 @@ impl Engine {
             for c in claims.iter() {
                 c.0.store(0, Ordering::Relaxed); // the workers are idle: `pool.run` publishes it
             }
-            let [p0, p1] = &mut self.st.pos;
+            let [p0, p1, p2] = &mut self.st.pos;
             let [s0, s1] = &mut self.st.snap;
             // The job borrows the state buffers mutably until `pool.run` returns, which is after
             // every thread is done with them; nothing else touches them meanwhile.
             let job = Job {
                 k: &self.k,
-                pos: [SharedBuf::new(p0), SharedBuf::new(p1)],
+                pos: [SharedBuf::new(p0), SharedBuf::new(p1), SharedBuf::new(p2)],
                 sf: SharedBuf::new(&mut self.st.sf),
                 snap: [SharedBuf::new(s0), SharedBuf::new(s1)],
                 claims,
@@ -671,42 +685,42 @@ impl State {
     }
 
     fn cur(&self) -> &[f64] {
-        &self.pos[(self.n & 1) as usize]
+        &self.pos[Roles::of(self.n).cur]
     }
 
     fn prev(&self) -> &[f64] {
-        &self.pos[((self.n & 1) ^ 1) as usize]
+        &self.pos[Roles::of(self.n).prev]
     }
 
     fn reset(&mut self, k: &Kernel) {
         self.n = 0;
         self.pos[0].copy_from_slice(&k.x_init);
-        self.pos[1].copy_from_slice(&k.xp_init);
+        self.pos[1].copy_from_slice(&k.x_init); // (x(n+1) is written over the mobile ones)
+        self.pos[2].copy_from_slice(&k.xp_init);
         self.sf.fill(0.0);
         self.blown = None;
     }
 
     /// Saves `x(n)`, `x(n-1)` of the moving materials (SOL positions never change).
     fn take_snapshot(&mut self, n_mce: usize) {
-        let c = (self.n & 1) as usize;
-        self.snap[0].copy_from_slice(&self.pos[c][..n_mce]);
-        self.snap[1].copy_from_slice(&self.pos[c ^ 1][..n_mce]);
+        let r = Roles::of(self.n);
+        self.snap[0].copy_from_slice(&self.pos[r.cur][..n_mce]);
+        self.snap[1].copy_from_slice(&self.pos[r.prev][..n_mce]);
     }
 
     /// Back to the snapshot taken at step `n0`.
     fn restore_snapshot(&mut self, n0: u64, n_mce: usize) {
         self.n = n0;
-        let c = (n0 & 1) as usize;
-        self.pos[c][..n_mce].copy_from_slice(&self.snap[0]);
-        self.pos[c ^ 1][..n_mce].copy_from_slice(&self.snap[1]);
+        let r = Roles::of(n0);
+        self.pos[r.cur][..n_mce].copy_from_slice(&self.snap[0]);
+        self.pos[r.prev][..n_mce].copy_from_slice(&self.snap[1]);
     }
 
     /// One step on the calling thread: link forces, outputs, material update.
     #[inline(always)]
     fn step(&mut self, k: &Kernel, frame: &mut [f64]) {
         let n = self.n;
-        let [p0, p1] = &mut self.pos;
-        let (cur, prev): (&[f64], &mut [f64]) = if n & 1 == 0 { (p0, p1) } else { (p1, p0) };
+        let (cur, prev, next) = Roles::of(n).split(&mut self.pos);
         {
             let (lf, rest) = self.sf.split_at_mut(k.nl);
             let (nf, ef) = rest.split_at_mut(k.nl);
@@ -718,11 +732,13 @@ impl State {
             k.whole.mats.clone(),
             n,
             cur,
-            &mut prev[..k.n_mce],
+            prev,
+            &mut next[..k.n_mce],
             Forces(sf),
         );
         self.n = n + 1;
     }
+
 }
 
 impl Kernel {
@@ -1116,12 +1132,29 @@ impl Kernel {
             channels,
             sum_terms,
             lslot,
+            lazy: Vec::new(),
+            lazy_runs: Vec::new(),
             simd: Simd::detect(),
             whole,
             parts: Vec::new(),
         };
         k.parts = vec![k.whole.clone()];
         k
+    }
+
+    /// `f(n)` of link `l` from `x(n)` and `x(n-1)`: the slot the links phase wrote, or, for a
+    /// skipped link, its force computed by the same code.
+    fn link_force(&self, l: LinkId, x: &[f64], xp: &[f64], lf: &[f64]) -> f64 {
+        let s = self.lslot[l.index()] as usize;
+        match self.lazy.get(s) {
+            Some(&r) if r != u32::MAX => {
+                let run = self.lazy_runs[r as usize].cut(s, s + 1);
+                let mut f = [0.0];
+                self.run_links(&run, &Positions::new(self, x, xp), &mut f, None);
+                f[0]
+            }
+            _ => lf[s],
+        }
     }
 
     /// Cuts links, inputs and materials into `threads` parts of about equal cost.
@@ -1474,10 +1507,12 @@ impl Kernel {
         mats: Range<usize>,
         n: u64,
         cur: &[f64],
+        prev: &[f64],
         next: &mut [f64],
         sf: Forces<'_>,
     ) {
         assert!(next.len() == mats.len() && sf.0.len() == self.sf_len);
+        assert!(cur.len() == self.nm && prev.len() == self.nm);
         let m0 = mats.start;
         let within = |r: Range<usize>| {
             let start = r.start.max(mats.start);
@@ -1486,16 +1521,17 @@ impl Kernel {
         let mas = within(0..self.n_mas);
         if !mas.is_empty() {
             let next = &mut next[mas.start - m0..mas.end - m0];
-            self.update_mas(mas.clone(), &cur[mas], next, sf);
+            self.update_mas(mas.clone(), &cur[mas.clone()], &prev[mas], next, sf);
         }
         let cel = within(self.n_mas..self.n_mc);
         if !cel.is_empty() {
             let next = &mut next[cel.start - m0..cel.end - m0];
             let params = &self.cel[cel.start - self.n_mas..cel.end - self.n_mas];
             let edges = self.csr(cel.clone());
-            for (((p, &x), e), c) in next.iter_mut().zip(&cur[cel]).zip(edges).zip(params) {
+            let xs = cur[cel.clone()].iter().zip(&prev[cel]);
+            for (((p, (&x, &xp)), e), c) in next.iter_mut().zip(xs).zip(edges).zip(params) {
                 let f = sum(e, sf);
-                *p = c.r + c.a * (x - c.r) + c.b * (*p - c.r) + f / c.m;
+                *p = c.r + c.a * (x - c.r) + c.b * (xp - c.r) + f / c.m;
             }
         }
         let enx = within(self.n_mc..self.n_mce);
@@ -1518,26 +1554,33 @@ impl Kernel {
 
     /// MAS `r` (storage slots): `x(n+1) = 2 x(n) - x(n-1) + F(n) / M`, one segment at a time.
     #[inline(always)]
-    fn update_mas(&self, r: Range<usize>, cur: &[f64], next: &mut [f64], sf: Forces<'_>) {
+    fn update_mas(
+        &self,
+        r: Range<usize>,
+        cur: &[f64],
+        prev: &[f64],
+        next: &mut [f64],
+        sf: Forces<'_>,
+    ) {
         for seg in &self.mas_segments {
             let (start, end) = (seg.mats.start.max(r.start), seg.mats.end.min(r.end));
             if start >= end {
                 continue;
             }
             let local = start - r.start..end - r.start;
-            let (cur, next) = (&cur[local.clone()], &mut next[local]);
+            let (cur, prev, next) = (&cur[local.clone()], &prev[local.clone()], &mut next[local]);
             let d = seg.degree;
             let Some(streams) = &seg.streams else {
                 let e0 = self.eoff[start] as usize;
                 let edges = &self.eidx[e0..e0 + d * (end - start)];
                 match d {
-                    1 => self.mas_with(start..end, cur, next, sf, edges.chunks_exact(1), sum),
-                    2 => self.mas_with(start..end, cur, next, sf, edges.chunks_exact(2), sum),
-                    3 => self.mas_with(start..end, cur, next, sf, edges.chunks_exact(3), sum),
-                    4 => self.mas_with(start..end, cur, next, sf, edges.chunks_exact(4), sum),
-                    5 => self.mas_with(start..end, cur, next, sf, edges.chunks_exact(5), sum),
-                    6 => self.mas_with(start..end, cur, next, sf, edges.chunks_exact(6), sum),
-                    _ => self.mas_with(start..end, cur, next, sf, self.csr(start..end), sum),
+                    1 => self.mas_with(start..end, cur, prev, next, sf, edges.chunks_exact(1), sum),
+                    2 => self.mas_with(start..end, cur, prev, next, sf, edges.chunks_exact(2), sum),
+                    3 => self.mas_with(start..end, cur, prev, next, sf, edges.chunks_exact(3), sum),
+                    4 => self.mas_with(start..end, cur, prev, next, sf, edges.chunks_exact(4), sum),
+                    5 => self.mas_with(start..end, cur, prev, next, sf, edges.chunks_exact(5), sum),
+                    6 => self.mas_with(start..end, cur, prev, next, sf, edges.chunks_exact(6), sum),
+                    _ => self.mas_with(start..end, cur, prev, next, sf, self.csr(start..end), sum),
                 }
                 continue;
             };
@@ -1554,15 +1597,15 @@ impl Kernel {
             };
             let n = end - start;
             match (d, unit) {
-                (0, _) => self.mas_with(start..end, cur, next, sf, 0..n, |_, _| 0.0),
-                (1, true) => self.mas_unit::<1>(start..end, cur, next, sf, term),
-                (2, true) => self.mas_unit::<2>(start..end, cur, next, sf, term),
-                (3, true) => self.mas_unit::<3>(start..end, cur, next, sf, term),
-                (4, true) => self.mas_unit::<4>(start..end, cur, next, sf, term),
-                (5, true) => self.mas_unit::<5>(start..end, cur, next, sf, term),
-                (6, true) => self.mas_unit::<6>(start..end, cur, next, sf, term),
+                (0, _) => self.mas_with(start..end, cur, prev, next, sf, 0..n, |_, _| 0.0),
+                (1, true) => self.mas_unit::<1>(start..end, cur, prev, next, sf, term),
+                (2, true) => self.mas_unit::<2>(start..end, cur, prev, next, sf, term),
+                (3, true) => self.mas_unit::<3>(start..end, cur, prev, next, sf, term),
+                (4, true) => self.mas_unit::<4>(start..end, cur, prev, next, sf, term),
+                (5, true) => self.mas_unit::<5>(start..end, cur, prev, next, sf, term),
+                (6, true) => self.mas_unit::<6>(start..end, cur, prev, next, sf, term),
                 _ => {
-                    self.mas_with(start..end, cur, next, sf, 0..n, |i, sf| {
+                    self.mas_with(start..end, cur, prev, next, sf, 0..n, |i, sf| {
                         let i = i as u32;
                         let mut f = 0.0;
                         for j in 0..d {
@@ -1590,6 +1633,7 @@ impl Kernel {
         &self,
         r: Range<usize>,
         cur: &[f64],
+        prev: &[f64],
         next: &mut [f64],
         sf: Forces<'_>,
         term: impl Fn(usize) -> (u32, u32, bool),
@@ -1600,7 +1644,7 @@ impl Kernel {
             &sf.0[s..s + n]
         });
         let signs: [f64; D] = std::array::from_fn(|j| if term(j).2 { -1.0 } else { 1.0 });
-        self.mas_with(r, cur, next, sf, 0..n, |i, _| {
+        self.mas_with(r, cur, prev, next, sf, 0..n, |i, _| {
             let mut f = 0.0;
             for j in 0..D {
                 f += signs[j] * terms[j][i];
@@ -1616,33 +1660,68 @@ impl Kernel {
         &self,
         r: Range<usize>,
         cur: &[f64],
+        prev: &[f64],
         next: &mut [f64],
         sf: Forces<'_>,
         edges: impl Iterator<Item = E>,
         force: impl Fn(E, Forces<'_>) -> f64,
     ) {
-        let items = next.iter_mut().zip(cur).zip(edges);
+        let items = next.iter_mut().zip(cur.iter().zip(prev)).zip(edges);
         match &self.mas {
             MasLaw::UniformInv(inv) => {
-                for ((p, &x), e) in items {
-                    *p = 2.0 * x - *p + force(e, sf) * inv;
+                for ((p, (&x, &xp)), e) in items {
+                    *p = 2.0 * x - xp + force(e, sf) * inv;
                 }
             }
             MasLaw::UniformDiv(m) => {
-                for ((p, &x), e) in items {
-                    *p = 2.0 * x - *p + force(e, sf) / m;
+                for ((p, (&x, &xp)), e) in items {
+                    *p = 2.0 * x - xp + force(e, sf) / m;
                 }
             }
             MasLaw::Inv(inv) => {
-                for (((p, &x), e), inv) in items.zip(&inv[r]) {
-                    *p = 2.0 * x - *p + force(e, sf) * inv;
+                for (((p, (&x, &xp)), e), inv) in items.zip(&inv[r]) {
+                    *p = 2.0 * x - xp + force(e, sf) * inv;
                 }
             }
             MasLaw::Div(ms) => {
-                for (((p, &x), e), m) in items.zip(&ms[r]) {
-                    *p = 2.0 * x - *p + force(e, sf) / m;
+                for (((p, (&x, &xp)), e), m) in items.zip(&ms[r]) {
+                    *p = 2.0 * x - xp + force(e, sf) / m;
                 }
             }
+        }
+    }
+}
+
+/// Which of the three position buffers holds what at step `n` (see the module documentation).
+#[derive(Clone, Copy, Debug)]
+struct Roles {
+    /// `x(n)`
+    cur: usize,
+    /// `x(n-1)`
+    prev: usize,
+    /// `x(n-2)`, overwritten with `x(n+1)` by step `n`
+    next: usize,
+}
+
+impl Roles {
+    #[inline(always)]
+    fn of(n: u64) -> Roles {
+        let c = (n % 3) as usize;
+        Roles {
+            cur: c,
+            prev: (c + 2) % 3,
+            next: (c + 1) % 3,
+        }
+    }
+
+    /// `(x(n), x(n-1), next)` of the three buffers.
+    #[inline(always)]
+    fn split(self, pos: &mut [Vec<f64>; 3]) -> (&[f64], &[f64], &mut [f64]) {
+        let [p0, p1, p2] = pos;
+        match self.cur {
+            0 => (p0, p2, p1),
+            1 => (p1, p0, p2),
+            _ => (p2, p1, p0),
         }
     }
 }
@@ -1730,15 +1809,13 @@ impl<O: FnMut(&StepView<'_>)> Vectorised for Block<'_, '_, O> {
         let ch = k.channels.len();
         for frame in 0..frames {
             st.step(k, &mut out[frame * ch..(frame + 1) * ch]);
-            let n = st.n;
-            let [p0, p1] = &st.pos;
-            let (x, xp) = if n & 1 == 0 { (p0, p1) } else { (p1, p0) };
+            let r = Roles::of(st.n);
             observe(&StepView {
-                n: n - 1,
-                slot: &k.slot,
-                lslot: &k.lslot,
-                x,
-                xp,
+                n: st.n - 1,
+                k,
+                x: &st.pos[r.cur],
+                xp: &st.pos[r.prev],
+                xpp: &st.pos[r.next],
                 lf: &st.sf[..k.nl],
             });
         }
@@ -2024,18 +2101,18 @@ fn signed(j: u32) -> (u32, u64) {
 ///
 /// The work of a phase is cut into chunks: the link chunks of every part (runs, whose slots `l`
 /// and `nl + l` of `sf` they write) and its material chunks (storage slots, whose next position
-/// they write in `pos[c ^ 1]`). Each thread claims its own part's chunks first, then whatever is
+/// they write in `pos[next]`). Each thread claims its own part's chunks first, then whatever is
 /// left of the others' (so a thread that is slower, for whatever reason, is helped rather than
 /// waited for); [`Claim::next`] hands each chunk to exactly one thread per step. Thread `t` also
 /// writes the slots `2 nl + enf` of its part, and copies `mats` of its part into the snapshot
-/// before the first step. Per step `n`, with `c = n & 1`:
+/// before the first step. Per step `n`, with `cur`, `prev`, `next` the [`Roles`] of step `n`:
 ///
 /// | phase | reads (everyone) | writes (the claimer of a chunk only) |
 /// | --- | --- | --- |
-/// | links (then barrier) | `pos[c]`, `pos[c ^ 1]` | the chunk's slots of `sf` |
-/// | materials (then barrier) | `pos[c]`, `sf`; the chunk's slots of `pos[c ^ 1]` | the chunk's slots of `pos[c ^ 1]` |
+/// | links (then barrier) | `pos[cur]`, `pos[prev]` | the chunk's slots of `sf` |
+/// | materials (then barrier) | `pos[cur]`, `pos[prev]`, `sf` | the chunk's slots of `pos[next]` |
 ///
-/// Thread 0 also records the outputs during the materials phase: it reads only `pos[c]` and the
+/// Thread 0 also records the outputs during the materials phase: it reads only `pos[cur]` and the
 /// `+f` slots of `sf`, which nobody writes in that phase. The snapshot copies read the position
 /// buffers, which nobody writes before the first barrier. So within a phase no element is written
 /// by one thread and accessed by another, and the barriers order the phases.
@@ -2044,7 +2121,7 @@ fn signed(j: u32) -> (u32, u64) {
 /// sum and update are each computed from the same inputs in the same order, whoever does it.
 struct Job<'a> {
     k: &'a Kernel,
-    pos: [SharedBuf; 2],
+    pos: [SharedBuf; 3],
     sf: SharedBuf,
     snap: [SharedBuf; 2],
     claims: &'a [Claim],
@@ -2077,7 +2154,7 @@ impl Job<'_> {
         let part = &k.parts[t];
         let nl = k.nl;
         let mats = part.mats.clone();
-        let c0 = (self.n0 & 1) as usize;
+        let r0 = Roles::of(self.n0);
         // SAFETY (all blocks below): each access follows the table in the type's documentation:
         // shared reads of buffers nobody writes in the current phase, exclusive writes to the
         // ranges of a chunk this thread claimed (disjoint from every other chunk's:
@@ -2086,7 +2163,7 @@ impl Job<'_> {
         // are cut into consecutive ranges; `parts_own_every_link_once` tests it), and every slice
         // is dropped before the barrier that ends its phase.
         unsafe {
-            let (x, xp) = (self.pos[c0].read(), self.pos[c0 ^ 1].read());
+            let (x, xp) = (self.pos[r0.cur].read(), self.pos[r0.prev].read());
             self.snap[0]
                 .write(mats.clone())
                 .copy_from_slice(&x[mats.clone()]);
@@ -2098,10 +2175,10 @@ impl Job<'_> {
         let threads = parts.len();
         for s in 0..self.frames {
             let n = self.n0 + s as u64;
-            let c = (n & 1) as usize;
+            let r = Roles::of(n);
             // SAFETY: links phase (see above).
             unsafe {
-                let (cur, prev) = (self.pos[c].read(), self.pos[c ^ 1].read());
+                let (cur, prev) = (self.pos[r.cur].read(), self.pos[r.prev].read());
                 let state = Positions::new(k, cur, prev);
                 // own chunks first, then the others' that are left
                 for q in (t..t + threads).map(|q| q % threads) {
@@ -2123,7 +2200,11 @@ impl Job<'_> {
             barrier.wait()?;
             // SAFETY: materials phase (see above).
             unsafe {
-                let (cur, sf) = (self.pos[c].read(), self.sf.read());
+                let (cur, prev, sf) = (
+                    self.pos[r.cur].read(),
+                    self.pos[r.prev].read(),
+                    self.sf.read(),
+                );
                 if let Some(out) = out.as_deref_mut() {
                     let ch = self.channels;
                     k.record(cur, &sf[..nl], &mut out[s * ch..(s + 1) * ch]);
@@ -2133,8 +2214,8 @@ impl Job<'_> {
                     let base = s * chunks.len();
                     while let Some(i) = self.claims[threads + q].next(base + chunks.len()) {
                         let mats = chunks[i - base].clone();
-                        let next = self.pos[c ^ 1].write(mats.clone());
-                        k.materials_phase(mats, n, cur, next, Forces(sf));
+                        let next = self.pos[r.next].write(mats.clone());
+                        k.materials_phase(mats, n, cur, prev, next, Forces(sf));
                     }
                 }
             }
