@@ -26,10 +26,8 @@
 //!
 //! Positions live in three buffers that take turns: `pos[n % 3]` holds `x(n)`, `pos[(n + 2) % 3]`
 //! `x(n-1)`, and the materials phase writes `x(n+1)` into the third, `pos[(n + 1) % 3]`, which
-//! held `x(n-2)`. Nothing the materials phase reads is written during it, so a material may read
-//! its neighbours' positions (the fused segments, [`FusedSegment`], compute their links' forces
-//! themselves) and `x(n-1)` stays available after the step, for the forces of links that the
-//! links phase skipped (computed on demand by [`Engine::link_force`] and [`StepView::link_force`]).
+//! held `x(n-2)`. Nothing the links or materials phases read is written during a step, so the
+//! single-thread step can interleave them tile by tile (see [`Tile`]).
 
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -202,6 +200,17 @@ struct Part {
     mat_chunks: Vec<Range<usize>>,
 }
 
+/// A tile of the single-thread step: the links of `Kernel::tile_runs[runs]`, then the materials
+/// `mats` (storage slots), whose every link is computed by then.
+#[derive(Clone, Debug)]
+struct Tile {
+    runs: Range<usize>,
+    mats: Range<usize>,
+}
+
+/// Materials per tile: their positions, forces and links' forces fit in the L1 data cache.
+const TILE: usize = 1024;
+
 /// The cost of a chunk of work that is worth a claim (about 2,000 links or 700 masses: a few
 /// microseconds), and the most chunks a part is cut into.
 const CHUNK_COST: u64 = 4096;
@@ -253,17 +262,15 @@ struct Kernel {
     sum_terms: Vec<(f64, Term)>,
     /// storage slot of each link, by declaration index (see [`link_order`])
     lslot: Vec<u32>,
-    /// For the links that the links phase skips (their every mobile end is in a fused segment,
-    /// and no output reads them), by slot: the run they belonged to, in `lazy_runs`; `u32::MAX`
-    /// for the others. Empty when no link is skipped.
-    lazy: Vec<u32>,
-    lazy_runs: Vec<Run>,
     /// the vector instructions the stepping loops are compiled for (detected once, in `new`)
     simd: Simd,
     /// one part with everything: the single-thread step
     whole: Part,
     /// one part per thread (see `Engine::set_threads`)
     parts: Vec<Part>,
+    /// the single-thread step, tile by tile (see `Kernel::tiling`)
+    tiles: Vec<Tile>,
+    tile_runs: Vec<Run>,
 }
 
 /// The state that stepping changes.
@@ -286,10 +293,9 @@ struct State {
 pub struct StepView<'a> {
     n: u64,
     k: &'a Kernel,
-    /// `x(n+1)`, `x(n)`, `x(n-1)`
+    /// `x(n+1)`, `x(n)`
     x: &'a [f64],
     xp: &'a [f64],
-    xpp: &'a [f64],
     lf: &'a [f64],
 }
 
@@ -311,7 +317,7 @@ impl StepView<'_> {
 
     /// `f(n)` of an interaction.
     pub fn link_force(&self, l: LinkId) -> f64 {
-        self.k.link_force(l, self.xp, self.xpp, self.lf)
+        self.lf[self.k.lslot[l.index()] as usize]
     }
 }
 
@@ -521,12 +527,7 @@ impl Engine {
 
     /// `f(n-1)`: the force the interaction computed at the last step (0 before the first).
     pub fn link_force(&self, l: LinkId) -> f64 {
-        if self.st.n == 0 {
-            return 0.0;
-        }
-        let r = Roles::of(self.st.n);
-        let (xp, xpp) = (&self.st.pos[r.prev], &self.st.pos[r.next]);
-        self.k.link_force(l, xp, xpp, &self.st.sf[..self.k.nl])
+        self.st.sf[self.k.lslot[l.index()] as usize]
     }
 
     /// Steps `frames` times, writing one frame of [`Engine::channels`] values per step into `out`
@@ -720,25 +721,23 @@ impl State {
     #[inline(always)]
     fn step(&mut self, k: &Kernel, frame: &mut [f64]) {
         let n = self.n;
+        let nl = k.nl;
         let (cur, prev, next) = Roles::of(n).split(&mut self.pos);
-        {
-            let (lf, rest) = self.sf.split_at_mut(k.nl);
-            let (nf, ef) = rest.split_at_mut(k.nl);
-            k.links_phase(n, cur, prev, lf, nf, ef);
+        k.inputs(0..k.enf.len(), n, &mut self.sf[2 * nl..]);
+        let state = Positions::new(k, cur, prev);
+        for tile in &k.tiles {
+            for run in &k.tile_runs[tile.runs.clone()] {
+                let (lf, nf) = self.sf.split_at_mut(nl);
+                let nf = run.neg.then(|| &mut nf[run.start..run.end]);
+                k.run_links(run, &state, &mut lf[run.start..run.end], nf);
+            }
+            let mats = tile.mats.clone();
+            let sf = Forces(&self.sf);
+            k.materials_phase(mats.clone(), n, cur, prev, &mut next[mats], sf);
         }
-        let sf = &self.sf[..];
-        k.record(cur, &sf[..k.nl], frame);
-        k.materials_phase(
-            k.whole.mats.clone(),
-            n,
-            cur,
-            prev,
-            &mut next[..k.n_mce],
-            Forces(sf),
-        );
+        k.record(cur, &self.sf[..nl], frame);
         self.n = n + 1;
     }
-
 }
 
 impl Kernel {
@@ -824,7 +823,7 @@ impl Kernel {
             slot[id.index()]
         };
         let nl = net.links.len();
-        let lslot = link_order(net, &slot);
+        let lslot = link_order(net, &slot, n_mc);
         let mut by_slot = vec![0usize; nl];
         for (d, &l) in lslot.iter().enumerate() {
             by_slot[l as usize] = d;
@@ -1132,29 +1131,66 @@ impl Kernel {
             channels,
             sum_terms,
             lslot,
-            lazy: Vec::new(),
-            lazy_runs: Vec::new(),
             simd: Simd::detect(),
             whole,
             parts: Vec::new(),
+            tiles: Vec::new(),
+            tile_runs: Vec::new(),
         };
         k.parts = vec![k.whole.clone()];
+        (k.tiles, k.tile_runs) = k.tiling(TILE);
         k
     }
 
-    /// `f(n)` of link `l` from `x(n)` and `x(n-1)`: the slot the links phase wrote, or, for a
-    /// skipped link, its force computed by the same code.
-    fn link_force(&self, l: LinkId, x: &[f64], xp: &[f64], lf: &[f64]) -> f64 {
-        let s = self.lslot[l.index()] as usize;
-        match self.lazy.get(s) {
-            Some(&r) if r != u32::MAX => {
-                let run = self.lazy_runs[r as usize].cut(s, s + 1);
-                let mut f = [0.0];
-                self.run_links(&run, &Positions::new(self, x, xp), &mut f, None);
-                f[0]
+    /// The tiles of the single-thread step, `tile` materials each, and their run pieces: each
+    /// link goes to the first tile that has one of its mobile ends (any tile, the first, when it
+    /// has none), or, for a run whose links are not in the order of their tiles, the whole run
+    /// to the first tile any of its links needs. A tile's links are computed just before its
+    /// materials are updated, while the forces and positions they share are in the L1 cache.
+    fn tiling(&self, tile: usize) -> (Vec<Tile>, Vec<Run>) {
+        let count = self.n_mce.div_ceil(tile).max(1);
+        let tile_of = |s: u32| {
+            let s = s as usize;
+            if s < self.n_mc {
+                s / tile
+            } else {
+                usize::MAX
             }
-            _ => lf[s],
+        };
+        let ready = |l: usize| match tile_of(self.la[l]).min(tile_of(self.lb[l])) {
+            usize::MAX => 0,
+            t => t,
+        };
+        let mut per_tile: Vec<Vec<Run>> = vec![Vec::new(); count];
+        for run in &self.whole.runs {
+            let r = run.start..run.end;
+            let ordered = r
+                .clone()
+                .zip(r.clone().skip(1))
+                .all(|(a, b)| ready(a) <= ready(b));
+            if !ordered {
+                let first = r.map(ready).min().unwrap_or(0);
+                per_tile[first].push(*run);
+                continue;
+            }
+            let mut start = run.start;
+            for l in run.start + 1..=run.end {
+                if l == run.end || ready(l) != ready(start) {
+                    per_tile[ready(start)].push(run.cut(start, l));
+                    start = l;
+                }
+            }
         }
+        let (mut tiles, mut runs) = (Vec::with_capacity(count), Vec::new());
+        for (t, pieces) in per_tile.into_iter().enumerate() {
+            let first = runs.len();
+            runs.extend(pieces);
+            tiles.push(Tile {
+                runs: first..runs.len(),
+                mats: (t * tile).min(self.n_mce)..((t + 1) * tile).min(self.n_mce),
+            });
+        }
+        (tiles, runs)
     }
 
     /// Cuts links, inputs and materials into `threads` parts of about equal cost.
@@ -1306,27 +1342,6 @@ impl Kernel {
         part.mat_chunks.retain(|c| !c.is_empty());
     }
 
-    /// Phase 1, single-threaded: the forces of every link into `lf` (and `-f` into `nf` for the
-    /// runs that need it), and the samples of every ENF input into `ef`.
-    #[inline(always)]
-    fn links_phase(
-        &self,
-        n: u64,
-        cur: &[f64],
-        prev: &[f64],
-        lf: &mut [f64],
-        nf: &mut [f64],
-        ef: &mut [f64],
-    ) {
-        let state = Positions::new(self, cur, prev);
-        for run in &self.whole.runs {
-            let r = run.start..run.end;
-            let nf = run.neg.then(|| &mut nf[r.clone()]);
-            self.run_links(run, &state, &mut lf[r], nf);
-        }
-        self.inputs(0..self.enf.len(), n, ef);
-    }
-
     /// The samples `n` of the ENF inputs `r` into `ef` (exactly `r`'s slots).
     #[inline(always)]
     fn inputs(&self, r: Range<usize>, n: u64, ef: &mut [f64]) {
@@ -1343,50 +1358,14 @@ impl Kernel {
         // Each law as a function of (x1(n), x1(n-1), x2(n), x2(n-1)), with the expressions of
         // FORMALISM.md: d = x1 - x2, v = (x1 - x1') - (x2 - x2').
         match (run.law, run.uniform) {
-            (Law::Res, true) => {
-                let k = self.lk[s0];
-                self.each(run, st, lf, nf, |_, xa, _, xb, _| k * (xa - xb));
-            }
-            (Law::Res, false) => {
-                let lk = &self.lk[r];
-                self.each(run, st, lf, nf, |i, xa, _, xb, _| lk[i] * (xa - xb));
-            }
-            (Law::Fro, true) => {
-                let z = self.lz[s0];
-                self.each(run, st, lf, nf, |_, xa, pa, xb, pb| {
-                    z * ((xa - pa) - (xb - pb))
-                });
-            }
-            (Law::Fro, false) => {
-                let lz = &self.lz[r];
-                self.each(run, st, lf, nf, |i, xa, pa, xb, pb| {
-                    lz[i] * ((xa - pa) - (xb - pb))
-                });
-            }
-            (Law::Ref, true) => {
-                let (k, z) = (self.lk[s0], self.lz[s0]);
-                self.each(run, st, lf, nf, |_, xa, pa, xb, pb| {
-                    k * (xa - xb) + z * ((xa - pa) - (xb - pb))
-                });
-            }
-            (Law::Ref, false) => {
-                let (lk, lz) = (&self.lk[r.clone()], &self.lz[r]);
-                self.each(run, st, lf, nf, |i, xa, pa, xb, pb| {
-                    lk[i] * (xa - xb) + lz[i] * ((xa - pa) - (xb - pb))
-                });
-            }
-            (Law::But, true) => {
-                let (k, z, s) = (self.lk[s0], self.lz[s0], self.ls[s0]);
-                self.each(run, st, lf, nf, |_, xa, pa, xb, pb| {
-                    but(xa, pa, xb, pb, k, z, s)
-                });
-            }
-            (Law::But, false) => {
-                let (lk, lz, ls) = (&self.lk[r.clone()], &self.lz[r.clone()], &self.ls[r]);
-                self.each(run, st, lf, nf, |i, xa, pa, xb, pb| {
-                    but(xa, pa, xb, pb, lk[i], lz[i], ls[i])
-                });
-            }
+            (Law::Res, true) => self.uniform::<ResLaw>(run, st, lf, nf),
+            (Law::Fro, true) => self.uniform::<FroLaw>(run, st, lf, nf),
+            (Law::Ref, true) => self.uniform::<RefLaw>(run, st, lf, nf),
+            (Law::But, true) => self.uniform::<ButLaw>(run, st, lf, nf),
+            (Law::Res, false) => self.varied::<ResLaw>(run, st, lf, nf),
+            (Law::Fro, false) => self.varied::<FroLaw>(run, st, lf, nf),
+            (Law::Ref, false) => self.varied::<RefLaw>(run, st, lf, nf),
+            (Law::But, false) => self.varied::<ButLaw>(run, st, lf, nf),
             (Law::Lnl, true) => match &self.lnl[self.lnl_of[s0] as usize] {
                 Lnl::Small4(ck, cz) => self.each(run, st, lf, nf, |_, xa, pa, xb, pb| {
                     ck.eval(xa - xb) + cz.eval((xa - pa) - (xb - pb))
@@ -1402,6 +1381,38 @@ impl Kernel {
                 });
             }
         }
+    }
+
+    /// A uniform run of a law with parameters.
+    #[inline(always)]
+    fn uniform<L: LinkLaw>(
+        &self,
+        run: &Run,
+        st: &Positions<'_>,
+        lf: &mut [f64],
+        nf: Option<&mut [f64]>,
+    ) {
+        let s0 = run.start;
+        let (k, z, s) = (self.lk[s0], self.lz[s0], self.ls[s0]);
+        self.each(run, st, lf, nf, |_, xa, pa, xb, pb| {
+            L::force(k, z, s, xa, pa, xb, pb)
+        });
+    }
+
+    /// A run of a law with parameters, each link with its own.
+    #[inline(always)]
+    fn varied<L: LinkLaw>(
+        &self,
+        run: &Run,
+        st: &Positions<'_>,
+        lf: &mut [f64],
+        nf: Option<&mut [f64]>,
+    ) {
+        let r = run.start..run.end;
+        let (lk, lz, ls) = (&self.lk[r.clone()], &self.lz[r.clone()], &self.ls[r]);
+        self.each(run, st, lf, nf, |i, xa, pa, xb, pb| {
+            L::force(lk[i], lz[i], ls[i], xa, pa, xb, pb)
+        });
     }
 
     /// Runs `force(i, x1(n), x1(n-1), x2(n), x2(n-1))` for every link `i` of `run`, storing `f`
@@ -1562,7 +1573,12 @@ impl Kernel {
         next: &mut [f64],
         sf: Forces<'_>,
     ) {
-        for seg in &self.mas_segments {
+        // (segments are in storage order: skip to the first that reaches `r`)
+        let first = self.mas_segments.partition_point(|g| g.mats.end <= r.start);
+        for seg in &self.mas_segments[first..] {
+            if seg.mats.start >= r.end {
+                break;
+            }
             let (start, end) = (seg.mats.start.max(r.start), seg.mats.end.min(r.end));
             if start >= end {
                 continue;
@@ -1656,6 +1672,7 @@ impl Kernel {
     /// The MAS loop over `r`: `next` holds `x(n-1)` on entry and `x(n+1)` on exit; `force(e, sf)`
     /// is `F(n)` of the MAS whose item of `edges` is `e`.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)] // the loop's inputs, each a slice or a closure
     fn mas_with<E>(
         &self,
         r: Range<usize>,
@@ -1815,7 +1832,6 @@ impl<O: FnMut(&StepView<'_>)> Vectorised for Block<'_, '_, O> {
                 k,
                 x: &st.pos[r.cur],
                 xp: &st.pos[r.prev],
-                xpp: &st.pos[r.next],
                 lf: &st.sf[..k.nl],
             });
         }
@@ -1838,13 +1854,48 @@ impl Vectorised for Share<'_, '_> {
     }
 }
 
+/// A link law with parameters `K`, `Z`, `S` (each law reads those it has), as a function of
+/// `(x1(n), x1(n-1), x2(n), x2(n-1))`, with the expressions of FORMALISM.md: `d = x1 - x2`,
+/// `v = (x1 - x1') - (x2 - x2')`.
+trait LinkLaw {
+    fn force(k: f64, z: f64, s: f64, xa: f64, pa: f64, xb: f64, pb: f64) -> f64;
+}
+
+struct ResLaw;
+struct FroLaw;
+struct RefLaw;
 /// BUT: active while `x2 - x1 < S`, then `K (d + S) + Z v`.
-#[inline(always)]
-fn but(xa: f64, pa: f64, xb: f64, pb: f64, k: f64, z: f64, s: f64) -> f64 {
-    if xb - xa < s {
-        k * ((xa - xb) + s) + z * ((xa - pa) - (xb - pb))
-    } else {
-        0.0
+struct ButLaw;
+
+impl LinkLaw for ResLaw {
+    #[inline(always)]
+    fn force(k: f64, _: f64, _: f64, xa: f64, _: f64, xb: f64, _: f64) -> f64 {
+        k * (xa - xb)
+    }
+}
+
+impl LinkLaw for FroLaw {
+    #[inline(always)]
+    fn force(_: f64, z: f64, _: f64, xa: f64, pa: f64, xb: f64, pb: f64) -> f64 {
+        z * ((xa - pa) - (xb - pb))
+    }
+}
+
+impl LinkLaw for RefLaw {
+    #[inline(always)]
+    fn force(k: f64, z: f64, _: f64, xa: f64, pa: f64, xb: f64, pb: f64) -> f64 {
+        k * (xa - xb) + z * ((xa - pa) - (xb - pb))
+    }
+}
+
+impl LinkLaw for ButLaw {
+    #[inline(always)]
+    fn force(k: f64, z: f64, s: f64, xa: f64, pa: f64, xb: f64, pb: f64) -> f64 {
+        if xb - xa < s {
+            k * ((xa - xb) + s) + z * ((xa - pa) - (xb - pb))
+        } else {
+            0.0
+        }
     }
 }
 
@@ -1940,7 +1991,7 @@ fn same_curve(a: &Curve, b: &Curve) -> bool {
 /// [`STEP_MIN`] of them) are sorted by their end 1, so that their ends are contiguous (the
 /// horizontal and vertical links of a membrane become two runs of unit-step progressions); the
 /// others keep their declaration order.
-fn link_order(net: &Network, slot: &[u32]) -> Vec<u32> {
+fn link_order(net: &Network, slot: &[u32], n_mc: usize) -> Vec<u32> {
     use std::collections::HashMap;
     let nl = net.links.len();
     // parameter classes, numbered by first appearance
@@ -2004,10 +2055,17 @@ fn link_order(net: &Network, slot: &[u32]) -> Vec<u32> {
     order.sort_by_key(|&d| {
         let g = group(d);
         let o = offset(d);
+        let (a, b) = (end(net.links[d].a), end(net.links[d].b));
         if per_offset[&(g, o)] >= STEP_MIN {
-            (g, 0u8, o, end(net.links[d].a), d)
+            (g, 0u8, o, a, d)
         } else {
-            (g, 1, 0, 0, d) // declaration order
+            // by the material that sums the link's force (its mobile end, or the smaller)
+            let mobile = |s: i64| s >= 0 && (s as usize) < n_mc;
+            match (mobile(a), mobile(b)) {
+                (true, false) => (g, 1, 0, a, d),
+                (false, true) => (g, 2, 0, b, d),
+                _ => (g, 3, 0, a.min(b), d),
+            }
         }
     });
     let mut lslot = vec![0u32; nl];

@@ -5,7 +5,9 @@
 mod common;
 
 use common::*;
-use cordis_core::{BlowUp, Curve, Engine, Interaction, LinkId, MatId, Material, Network, Probe, Signal};
+use cordis_core::{
+    BlowUp, Curve, Engine, Interaction, LinkId, MatId, Material, Network, Probe, Signal,
+};
 
 const THREADS: [usize; 4] = [1, 2, 3, 4];
 const BLOCKS: [usize; 3] = [1, 7, 1024];
