@@ -46,13 +46,13 @@ impl<const N: usize> SmallCurve<N> {
         for (count, p) in pieces.iter_mut().enumerate().take(n + 1) {
             *p = if n == 0 {
                 Piece {
-                    flat: true,
+                    flat: 1.0,
                     ..Piece::default() // the empty curve is 0 everywhere
                 }
             } else if count == 0 || count == n {
                 Piece {
                     y: c.ys[count.saturating_sub(1)],
-                    flat: true,
+                    flat: 1.0,
                     ..Piece::default()
                 }
             } else {
@@ -60,7 +60,7 @@ impl<const N: usize> SmallCurve<N> {
                     x0: c.xs[count - 1],
                     y: c.ys[count - 1],
                     slope: c.slopes[count - 1],
-                    flat: false,
+                    flat: 0.0,
                 }
             };
         }
@@ -70,11 +70,73 @@ impl<const N: usize> SmallCurve<N> {
     /// The value at `x`: [`Curve::eval`], bit for bit.
     #[inline(always)]
     pub(crate) fn eval(&self, x: f64) -> f64 {
-        let count: usize = self.xs.iter().map(|&a| usize::from(a <= x)).sum();
-        let p = &self.pieces[count.min(8)];
-        let along = p.y + (x - p.x0) * p.slope;
-        if p.flat {
-            p.y
+        // The abscissas are sorted (NaN padding last), so those `<= x` are the first `count`:
+        // keeping the piece after the last of them selects `pieces[count]`. Selects, no branch
+        // and no indexed load, so that the engine's LNL loops are vectorised.
+        let p0 = &self.pieces[0];
+        let (mut x0, mut y, mut slope, mut flat) = (p0.x0, p0.y, p0.slope, p0.flat);
+        for (a, p) in self.xs.iter().zip(&self.pieces[1..]) {
+            let past = *a <= x;
+            x0 = if past { p.x0 } else { x0 };
+            y = if past { p.y } else { y };
+            slope = if past { p.slope } else { slope };
+            flat = if past { p.flat } else { flat };
+        }
+        let along = y + (x - x0) * slope;
+        if flat != 0.0 {
+            y
+        } else {
+            along
+        }
+    }
+}
+
+/// A curve of exactly `N >= 2` points prepared for the engine's LNL loops: the points and the
+/// slopes of [`Curve::eval`], evaluated with `N - 2` selects and two compares, no branch and no
+/// indexed load (so a loop over links is vectorised). The same bits as `Curve::eval`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct ExactCurve<const N: usize> {
+    xs: [f64; N],
+    ys: [f64; N],
+    /// `slopes[i]` of segment `i` (the last entry unused)
+    slopes: [f64; N],
+}
+
+impl<const N: usize> ExactCurve<N> {
+    /// `None` unless the curve has exactly `N` points, `N >= 2`.
+    pub(crate) fn new(c: &Curve) -> Option<Self> {
+        if N < 2 || c.xs.len() != N {
+            return None;
+        }
+        let mut e = ExactCurve {
+            xs: [0.0; N],
+            ys: [0.0; N],
+            slopes: [0.0; N],
+        };
+        e.xs.copy_from_slice(&c.xs);
+        e.ys.copy_from_slice(&c.ys);
+        e.slopes[..N - 1].copy_from_slice(&c.slopes);
+        Some(e)
+    }
+
+    /// The value at `x`: [`Curve::eval`], bit for bit. With `i` the last point whose abscissa is
+    /// `<= x`: no such point gives `y[0]`, the last point `y[N-1]`, and otherwise segment `i`,
+    /// chosen by keeping the last `j < N - 1` with `x[j] <= x` (the abscissas are sorted).
+    #[inline(always)]
+    pub(crate) fn eval(&self, x: f64) -> f64 {
+        let (mut x0, mut y, mut slope) = (self.xs[0], self.ys[0], self.slopes[0]);
+        for j in 1..N - 1 {
+            let past = self.xs[j] <= x;
+            x0 = if past { self.xs[j] } else { x0 };
+            y = if past { self.ys[j] } else { y };
+            slope = if past { self.slopes[j] } else { slope };
+        }
+        let along = y + (x - x0) * slope;
+        let before = !(self.xs[0] <= x); // (a NaN `x` too, as in `Curve::eval`)
+        let after = self.xs[N - 1] <= x;
+        let end = if after { self.ys[N - 1] } else { self.ys[0] };
+        if before || after {
+            end
         } else {
             along
         }
@@ -89,7 +151,9 @@ struct Piece {
     x0: f64,
     y: f64,
     slope: f64,
-    flat: bool,
+    /// 1 when flat, 0 otherwise (a number rather than a `bool`, so that the select in `eval` is
+    /// a vector compare)
+    flat: f64,
 }
 
 /// Why a list of points is not a curve.
@@ -264,6 +328,10 @@ mod tests {
             vec![],
             vec![(0.5, -2.0)],
             vec![(-1.0, 0.5), (2.0, 1.0)],
+            vec![(0.0, -1.0), (0.0, 1.0)],
+            vec![(-1.0, -0.1), (0.0, 0.0), (1.0, 0.1)],
+            vec![(0.0, 0.0), (1.0, 1.0), (1.0, -0.0)],
+            vec![(-2.0, -0.0), (-2.0, 3.0), (5.0, -1.0)],
             vec![(-0.5, 0.0), (-0.5, -0.05), (0.5, 0.05), (0.5, 0.0)],
             vec![
                 (-3.0, 1.0),
@@ -289,11 +357,28 @@ mod tests {
             let s4 = SmallCurve::<4>::new(&c);
             let s8 = SmallCurve::<8>::new(&c).unwrap();
             assert_eq!(s4.is_some(), pts.len() <= 4);
+            let (e2, e3, e4) = (
+                ExactCurve::<2>::new(&c),
+                ExactCurve::<3>::new(&c),
+                ExactCurve::<4>::new(&c),
+            );
+            assert_eq!(
+                [e2.is_some(), e3.is_some(), e4.is_some()],
+                [pts.len() == 2, pts.len() == 3, pts.len() == 4]
+            );
             for &x in &xs {
                 let want = c.eval(x).to_bits();
                 assert_eq!(s8.eval(x).to_bits(), want, "{pts:?} at {x}");
                 if let Some(s4) = s4 {
                     assert_eq!(s4.eval(x).to_bits(), want, "{pts:?} at {x}");
+                }
+                let exact = [
+                    e2.map(|e| e.eval(x)),
+                    e3.map(|e| e.eval(x)),
+                    e4.map(|e| e.eval(x)),
+                ];
+                for v in exact.into_iter().flatten() {
+                    assert_eq!(v.to_bits(), want, "{pts:?} at {x} (exact)");
                 }
             }
         }

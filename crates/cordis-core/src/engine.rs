@@ -32,7 +32,7 @@
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use crate::curve::SmallCurve;
+use crate::curve::{ExactCurve, SmallCurve};
 use crate::parallel::{Poisoned, Pool, SharedBuf, SpinBarrier, Task};
 use crate::{Curve, Interaction, LinkId, MatId, Material, Network, Output, Probe, Signal};
 
@@ -131,16 +131,78 @@ struct Cel {
 /// exactly as [`Curve::eval`].
 #[derive(Clone, Debug)]
 enum Lnl {
-    /// both curves of at most 4 points (the usual springs, contacts and dampers)
-    Small4(SmallCurve<4>, SmallCurve<4>),
+    /// both curves of 2 to 4 points (the usual springs, contacts and dampers), each evaluated
+    /// with selects in a loop the compiler vectorises
+    Exact(ExactPair),
     Small8(SmallCurve<8>, SmallCurve<8>),
     Any(Curve, Curve),
 }
 
+/// Generates `ExactPair` (one variant per pair of point counts), its constructor and the
+/// dispatch of a run over it.
+macro_rules! exact_pairs {
+    ($(($v:ident, $a:literal, $b:literal)),* $(,)?) => {
+        #[derive(Clone, Copy, Debug)]
+        #[allow(clippy::enum_variant_names)]
+        enum ExactPair {
+            $($v(ExactCurve<$a>, ExactCurve<$b>),)*
+        }
+
+        impl ExactPair {
+            fn new(k: &Curve, z: &Curve) -> Option<ExactPair> {
+                $(
+                    if let (Some(a), Some(b)) = (ExactCurve::<$a>::new(k), ExactCurve::<$b>::new(z)) {
+                        return Some(ExactPair::$v(a, b));
+                    }
+                )*
+                None
+            }
+
+            #[inline(always)]
+            fn force(&self, d: f64, v: f64) -> f64 {
+                match self {
+                    $(ExactPair::$v(k, z) => k.eval(d) + z.eval(v),)*
+                }
+            }
+        }
+
+        impl Kernel {
+            /// A uniform LNL run of curves `pair`.
+            #[inline(always)]
+            fn exact_run(
+                &self,
+                pair: ExactPair,
+                run: &Run,
+                st: &Positions<'_>,
+                lf: &mut [f64],
+                nf: Option<&mut [f64]>,
+            ) {
+                match pair {
+                    $(ExactPair::$v(ck, cz) => self.each(run, st, lf, nf, |_, xa, pa, xb, pb| {
+                        ck.eval(xa - xb) + cz.eval((xa - pa) - (xb - pb))
+                    }),)*
+                }
+            }
+        }
+    };
+}
+
+exact_pairs!(
+    (P22, 2, 2),
+    (P23, 2, 3),
+    (P24, 2, 4),
+    (P32, 3, 2),
+    (P33, 3, 3),
+    (P34, 3, 4),
+    (P42, 4, 2),
+    (P43, 4, 3),
+    (P44, 4, 4),
+);
+
 impl Lnl {
     fn new(k: &Curve, z: &Curve) -> Lnl {
-        if let (Some(a), Some(b)) = (SmallCurve::new(k), SmallCurve::new(z)) {
-            Lnl::Small4(a, b)
+        if let Some(pair) = ExactPair::new(k, z) {
+            Lnl::Exact(pair)
         } else if let (Some(a), Some(b)) = (SmallCurve::new(k), SmallCurve::new(z)) {
             Lnl::Small8(a, b)
         } else {
@@ -151,7 +213,7 @@ impl Lnl {
     #[inline(always)]
     fn force(&self, d: f64, v: f64) -> f64 {
         match self {
-            Lnl::Small4(k, z) => k.eval(d) + z.eval(v),
+            Lnl::Exact(pair) => pair.force(d, v),
             Lnl::Small8(k, z) => k.eval(d) + z.eval(v),
             Lnl::Any(k, z) => k.eval(d) + z.eval(v),
         }
@@ -1367,9 +1429,7 @@ impl Kernel {
             (Law::Ref, false) => self.varied::<RefLaw>(run, st, lf, nf),
             (Law::But, false) => self.varied::<ButLaw>(run, st, lf, nf),
             (Law::Lnl, true) => match &self.lnl[self.lnl_of[s0] as usize] {
-                Lnl::Small4(ck, cz) => self.each(run, st, lf, nf, |_, xa, pa, xb, pb| {
-                    ck.eval(xa - xb) + cz.eval((xa - pa) - (xb - pb))
-                }),
+                Lnl::Exact(pair) => self.exact_run(*pair, run, st, lf, nf),
                 law => self.each(run, st, lf, nf, |_, xa, pa, xb, pb| {
                     law.force(xa - xb, (xa - pa) - (xb - pb))
                 }),
@@ -2286,6 +2346,99 @@ impl Job<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every vector width this CPU has steps to the same bits as the scalar build, on a string
+    /// and a membrane whose links come in uniform and varied runs of every law (LNL curves of 2,
+    /// 3 and 9 points), with BUT contacts that open and close, ENF inputs and every output kind.
+    #[test]
+    fn every_vector_width_gives_the_same_bits() {
+        let mut net = Network::new();
+        let (rows, cols) = (12, 40);
+        let ids: Vec<MatId> = (0..rows * cols)
+            .map(|i| {
+                let m = [1.0, 1.5, 0.5][i % 3];
+                let v0 = if i == 45 { 0.05 } else { 0.0 };
+                net.add_material(Material::Mas { m, x0: 0.0, v0 })
+            })
+            .collect();
+        let g = net.add_material(Material::Sol { x0: 0.0 });
+        let nine: Vec<(f64, f64)> = (0..9)
+            .map(|i| (i as f64 - 4.0, 0.02 * (i as f64 - 4.0)))
+            .collect();
+        let law = |i: usize| {
+            let w = 1.0 + 0.01 * (i % 5) as f64;
+            match (i / 24) % 6 {
+                0 => Interaction::Ref { k: 0.1, z: 1e-4 },
+                1 => Interaction::Ref {
+                    k: 0.1 * w,
+                    z: 1e-4,
+                },
+                2 => Interaction::Res { k: 0.08 },
+                3 => Interaction::But {
+                    k: 0.1,
+                    z: 1e-4,
+                    s: if i % 2 == 0 { 1e-3 } else { -1e-3 },
+                },
+                4 => Interaction::Lnl {
+                    lk: Curve::new(&[(-0.01, -1e-3), (0.0, 0.0), (0.01, 2e-3)]).unwrap(),
+                    lz: Curve::new(&[(-1.0, -1e-4), (1.0, 1e-4)]).unwrap(),
+                },
+                _ => Interaction::Lnl {
+                    lk: Curve::new(&nine).unwrap(),
+                    lz: Curve::new(&[(-1.0, -1e-4), (1.0, 1e-4)]).unwrap(),
+                },
+            }
+        };
+        let mut i = 0;
+        for r in 0..rows {
+            net.add_link(law(i), g, ids[r * cols]);
+            for c in 0..cols - 1 {
+                i += 1;
+                net.add_link(law(i), ids[r * cols + c], ids[r * cols + c + 1]);
+            }
+        }
+        for c in 0..cols {
+            for r in 0..rows - 1 {
+                i += 1;
+                net.add_link(law(i), ids[r * cols + c], ids[(r + 1) * cols + c]);
+            }
+            net.add_link(law(i), ids[(rows - 1) * cols + c], g);
+        }
+        net.add_force(ids[7], Signal::Impulse { at: 3, amp: 0.2 });
+        net.add_position_output(ids[rows * cols / 2]);
+        net.add_force_output(LinkId(5));
+        net.add_sum_output(vec![
+            (0.5, Probe::Position(ids[3])),
+            (2.0, Probe::Force(LinkId(60))),
+        ]);
+        let mut widths = vec![Simd::None];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::is_x86_feature_detected!("avx2") {
+                widths.push(Simd::Avx2);
+            }
+            if std::is_x86_feature_detected!("avx512f") {
+                widths.push(Simd::Avx512);
+            }
+        }
+        let render = |simd: Simd| {
+            let mut e = Engine::new(&net);
+            e.k.simd = simd;
+            let mut out = vec![0.0; 3000 * e.channels()];
+            e.process(3000, &mut out).unwrap();
+            out
+        };
+        let scalar = render(Simd::None);
+        assert!(scalar.iter().any(|v| *v != 0.0));
+        for &w in &widths[1..] {
+            let out = render(w);
+            let same = out
+                .iter()
+                .zip(&scalar)
+                .all(|(a, b)| a.to_bits() == b.to_bits());
+            assert!(same, "{w:?} differs from the scalar build");
+        }
+    }
 
     #[test]
     fn split_covers_everything_in_order_and_balances_cost() {
