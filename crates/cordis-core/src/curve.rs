@@ -132,7 +132,8 @@ impl<const N: usize> ExactCurve<N> {
             slope = if past { self.slopes[j] } else { slope };
         }
         let along = y + (x - x0) * slope;
-        let before = !(self.xs[0] <= x); // (a NaN `x` too, as in `Curve::eval`)
+        #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: a NaN `x` is "before" too
+        let before = !(self.xs[0] <= x); // (as in `Curve::eval`)
         let after = self.xs[N - 1] <= x;
         let end = if after { self.ys[N - 1] } else { self.ys[0] };
         if before || after {

@@ -134,8 +134,8 @@ enum Lnl {
     /// both curves of 2 to 4 points (the usual springs, contacts and dampers), each evaluated
     /// with selects in a loop the compiler vectorises
     Exact(ExactPair),
-    Small8(SmallCurve<8>, SmallCurve<8>),
-    Any(Curve, Curve),
+    Small8(Box<(SmallCurve<8>, SmallCurve<8>)>),
+    Any(Box<(Curve, Curve)>),
 }
 
 /// Generates `ExactPair` (one variant per pair of point counts), its constructor and the
@@ -204,9 +204,9 @@ impl Lnl {
         if let Some(pair) = ExactPair::new(k, z) {
             Lnl::Exact(pair)
         } else if let (Some(a), Some(b)) = (SmallCurve::new(k), SmallCurve::new(z)) {
-            Lnl::Small8(a, b)
+            Lnl::Small8(Box::new((a, b)))
         } else {
-            Lnl::Any(k.clone(), z.clone())
+            Lnl::Any(Box::new((k.clone(), z.clone())))
         }
     }
 
@@ -214,8 +214,8 @@ impl Lnl {
     fn force(&self, d: f64, v: f64) -> f64 {
         match self {
             Lnl::Exact(pair) => pair.force(d, v),
-            Lnl::Small8(k, z) => k.eval(d) + z.eval(v),
-            Lnl::Any(k, z) => k.eval(d) + z.eval(v),
+            Lnl::Small8(c) => c.0.eval(d) + c.1.eval(v),
+            Lnl::Any(c) => c.0.eval(d) + c.1.eval(v),
         }
     }
 }
