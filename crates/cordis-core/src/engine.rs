@@ -5,16 +5,18 @@
 //! A step has two phases:
 //!
 //! 1. **Links.** Every interaction computes its force `f(n)` from `x(n)` and `x(n-1)` and stores
-//!    it in its own slot of one buffer `sf` (and `-f` in a second slot when the material at its
-//!    end 1 reads its terms through an index list, see below); every force input (ENF) on a mobile
-//!    material stores its sample `n` in its own slot. Nothing is accumulated, so this phase gives the same bits
-//!    whatever order (or thread) the links are computed in.
+//!    it in its own slot of one buffer `sf`; every force input (ENF) on a mobile material stores
+//!    its sample `n` in its own slot. Nothing is accumulated, so this phase gives the same bits
+//!    whatever order (or thread) the links are computed in. The slots follow a storage order of
+//!    the links chosen for speed ([`link_order`]), not their declaration order.
 //! 2. **Materials.** Every material sums its terms itself — a *gather*: starting from `+0.0`, it
 //!    adds the slots of its links in declaration order, negated where it is end 1 (end 1 before
 //!    end 2 for a link tied to the same material twice), then the slots of its ENF inputs in
 //!    declaration order. Materials whose terms form arithmetic progressions of slots (strings,
-//!    rows of membranes) negate with a sign mask per progression; the others read the `-f` slot; that is exactly the sum FORMALISM.md prescribes (`F - f` and `F + (-f)`
-//!    are the same IEEE operation, and negation is exact), so each `F(n)` has the bits of the
+//!    rows of membranes) apply one sign per progression (a multiplication by `±1`); the others
+//!    flip the sign bit of each end-1 term. That is exactly the sum FORMALISM.md prescribes
+//!    (`F - f` and `F + (-f)` are the same IEEE operation, and negation is exact, whether by a
+//!    sign flip or by `-1 * f`), so each `F(n)` has the bits of the
 //!    reference stepper's. (Only the sign of a NaN may differ, and a NaN force makes `x(n+1)`
 //!    non-finite: a blow-up, whose outputs are never delivered.) Then it computes `x(n+1)` from
 //!    `x(n)`, `x(n-1)` and `F(n)`, again independently of every other material.
@@ -66,8 +68,6 @@ struct Run {
     end: usize,
     uniform: bool,
     ends: Ends,
-    /// also store `-f` (slots `nl + l`): some end 1 of the run reads it (see `Kernel::eidx`)
-    neg: bool,
 }
 
 /// Where the ends of the links of a run are.
@@ -175,10 +175,9 @@ macro_rules! exact_pairs {
                 run: &Run,
                 st: &Positions<'_>,
                 lf: &mut [f64],
-                nf: Option<&mut [f64]>,
             ) {
                 match pair {
-                    $(ExactPair::$v(ck, cz) => self.each(run, st, lf, nf, |_, xa, pa, xb, pb| {
+                    $(ExactPair::$v(ck, cz) => self.each(run, st, lf, |_, xa, pa, xb, pb| {
                         ck.eval(xa - xb) + cz.eval((xa - pa) - (xb - pb))
                     }),)*
                 }
@@ -305,13 +304,12 @@ struct Kernel {
     lnl: Vec<Lnl>,
     lnl_of: Vec<u32>,
     /// ENF inputs on mobile materials (MAS, CEL), declaration order; input `i` writes slot
-    /// `2 nl + i` of `sf`. (Forces on SOL and ENX are discarded, so their inputs are not stepped.)
+    /// `nl + i` of `sf`. (Forces on SOL and ENX are discarded, so their inputs are not stepped.)
     enf: Vec<Signal>,
     /// Edges of mobile material `s` (storage slot `< n_mc`): `eidx[eoff[s]..eoff[s + 1]]`, slots
-    /// of `sf` in the order their terms are summed: `l` where the material is end 2 of link `l`,
-    /// `nl + l` (the `-f` slot) where it is end 1, `2 nl + i` for ENF input `i`. In the segments
-    /// read by progressions, end-1 edges are `l | NEG` instead ([`NEG`]: negate `sf[l]`), and no
-    /// `-f` slot is needed. Every entry is `< sf_len` without `NEG` (checked in `new`).
+    /// of `sf` in the order their terms are summed: `l` where the material is end 2 of link
+    /// (slot) `l`, `l | NEG` where it is end 1 ([`NEG`]: negate `sf[l]`), `nl + i` for ENF input
+    /// `i`. Every entry is `< sf_len` without `NEG` (checked in `new`).
     eoff: Vec<u32>,
     eidx: Vec<u32>,
     /// The MAS cut into segments of one degree (storage order groups them by degree).
@@ -342,8 +340,7 @@ struct State {
     /// `pos[n % 3]` is `x(n)`, `pos[(n + 2) % 3]` is `x(n-1)`, `pos[(n + 1) % 3]` is `x(n-2)`
     /// (storage order; SOL positions in all three).
     pos: [Vec<f64>; 3],
-    /// `f(n)` of the links `[0, nl)`, `-f(n)` `[nl, 2 nl)` (for the runs with `neg` only), ENF
-    /// samples `[2 nl, ..)`.
+    /// `f(n)` of the links `[0, nl)` (by storage slot), ENF samples `[nl, ..)`.
     sf: Vec<f64>,
     /// `x(n)` and `x(n-1)` of the moving materials (`0..n_mce`) at the start of the block.
     snap: [Vec<f64>; 2],
@@ -785,13 +782,11 @@ impl State {
         let n = self.n;
         let nl = k.nl;
         let (cur, prev, next) = Roles::of(n).split(&mut self.pos);
-        k.inputs(0..k.enf.len(), n, &mut self.sf[2 * nl..]);
+        k.inputs(0..k.enf.len(), n, &mut self.sf[nl..]);
         let state = Positions::new(k, cur, prev);
         for tile in &k.tiles {
             for run in &k.tile_runs[tile.runs.clone()] {
-                let (lf, nf) = self.sf.split_at_mut(nl);
-                let nf = run.neg.then(|| &mut nf[run.start..run.end]);
-                k.run_links(run, &state, &mut lf[run.start..run.end], nf);
+                k.run_links(run, &state, &mut self.sf[run.start..run.end]);
             }
             let mats = tile.mats.clone();
             let sf = Forces(&self.sf);
@@ -946,7 +941,6 @@ impl Kernel {
                     end: e,
                     uniform: true,
                     ends: Ends::Indexed,
-                    neg: false,
                 });
             } else {
                 match runs.last_mut() {
@@ -957,7 +951,6 @@ impl Kernel {
                         end: e,
                         uniform: false,
                         ends: Ends::Indexed,
-                        neg: false,
                     }),
                 }
             }
@@ -1017,7 +1010,7 @@ impl Kernel {
                 enf_slot.push(s);
             }
         }
-        let sf_len = 2 * nl + enf.len();
+        let sf_len = nl + enf.len();
         assert!(
             sf_len < NEG as usize,
             "too many interactions for one engine"
@@ -1052,11 +1045,11 @@ impl Kernel {
         for &l in &lslot {
             // in declaration order
             let l = l as usize;
-            push(la[l], NEG as usize | l); // end 1 receives -f
+            push(la[l], NEG as usize | l); // end 1 receives -f: a negated term
             push(lb[l], l); // end 2 receives +f
         }
         for (i, &s) in enf_slot.iter().enumerate() {
-            push(s as u32, 2 * nl + i);
+            push(s as u32, nl + i);
         }
         let degree = |s: usize| (eoff[s + 1] - eoff[s]) as usize;
         let mut by_degree: Vec<(Range<usize>, usize)> = Vec::new();
@@ -1094,42 +1087,6 @@ impl Kernel {
                 });
             }
         }
-        // Materials read through index lists (MAS outside progressions, and CEL) take `-f` from
-        // its own slot rather than negating each term (a sign flip per term costs more than the
-        // store): the links at their end 1 store it.
-        let mut needs_neg = vec![false; nl];
-        let listed = mas_segments
-            .iter()
-            .filter(|g| g.streams.is_none())
-            .map(|g| g.mats.clone())
-            .chain(std::iter::once(n_mas..n_mc));
-        for r in listed {
-            for e in &mut eidx[eoff[r.start] as usize..eoff[r.end] as usize] {
-                if *e & NEG != 0 {
-                    let l = (*e & !NEG) as usize;
-                    *e = (nl + l) as u32;
-                    needs_neg[l] = true;
-                }
-            }
-        }
-        // (a run is cut where that need changes: one listed material at the end of a string
-        // must not make the whole string store `-f`)
-        let runs: Vec<Run> = runs
-            .iter()
-            .flat_map(|run| {
-                let mut pieces = Vec::new();
-                let mut start = run.start;
-                for l in run.start + 1..=run.end {
-                    if l == run.end || needs_neg[l] != needs_neg[start] {
-                        let mut piece = run.cut(start, l);
-                        piece.neg = needs_neg[start];
-                        pieces.push(piece);
-                        start = l;
-                    }
-                }
-                pieces
-            })
-            .collect();
         // The gather reads `sf` unchecked at these indices: make the bound local and obvious.
         assert!(eidx.iter().all(|&j| ((j & !NEG) as usize) < sf_len));
 
@@ -1414,29 +1371,29 @@ impl Kernel {
 
     /// The forces of one run of links.
     #[inline(always)]
-    fn run_links(&self, run: &Run, st: &Positions<'_>, lf: &mut [f64], nf: Option<&mut [f64]>) {
+    fn run_links(&self, run: &Run, st: &Positions<'_>, lf: &mut [f64]) {
         let r = run.start..run.end;
         let s0 = run.start;
         // Each law as a function of (x1(n), x1(n-1), x2(n), x2(n-1)), with the expressions of
         // FORMALISM.md: d = x1 - x2, v = (x1 - x1') - (x2 - x2').
         match (run.law, run.uniform) {
-            (Law::Res, true) => self.uniform::<ResLaw>(run, st, lf, nf),
-            (Law::Fro, true) => self.uniform::<FroLaw>(run, st, lf, nf),
-            (Law::Ref, true) => self.uniform::<RefLaw>(run, st, lf, nf),
-            (Law::But, true) => self.uniform::<ButLaw>(run, st, lf, nf),
-            (Law::Res, false) => self.varied::<ResLaw>(run, st, lf, nf),
-            (Law::Fro, false) => self.varied::<FroLaw>(run, st, lf, nf),
-            (Law::Ref, false) => self.varied::<RefLaw>(run, st, lf, nf),
-            (Law::But, false) => self.varied::<ButLaw>(run, st, lf, nf),
+            (Law::Res, true) => self.uniform::<ResLaw>(run, st, lf),
+            (Law::Fro, true) => self.uniform::<FroLaw>(run, st, lf),
+            (Law::Ref, true) => self.uniform::<RefLaw>(run, st, lf),
+            (Law::But, true) => self.uniform::<ButLaw>(run, st, lf),
+            (Law::Res, false) => self.varied::<ResLaw>(run, st, lf),
+            (Law::Fro, false) => self.varied::<FroLaw>(run, st, lf),
+            (Law::Ref, false) => self.varied::<RefLaw>(run, st, lf),
+            (Law::But, false) => self.varied::<ButLaw>(run, st, lf),
             (Law::Lnl, true) => match &self.lnl[self.lnl_of[s0] as usize] {
-                Lnl::Exact(pair) => self.exact_run(*pair, run, st, lf, nf),
-                law => self.each(run, st, lf, nf, |_, xa, pa, xb, pb| {
+                Lnl::Exact(pair) => self.exact_run(*pair, run, st, lf),
+                law => self.each(run, st, lf, |_, xa, pa, xb, pb| {
                     law.force(xa - xb, (xa - pa) - (xb - pb))
                 }),
             },
             (Law::Lnl, false) => {
                 let (lnl, of) = (&self.lnl, &self.lnl_of[r]);
-                self.each(run, st, lf, nf, |i, xa, pa, xb, pb| {
+                self.each(run, st, lf, |i, xa, pa, xb, pb| {
                     lnl[of[i] as usize].force(xa - xb, (xa - pa) - (xb - pb))
                 });
             }
@@ -1445,63 +1402,32 @@ impl Kernel {
 
     /// A uniform run of a law with parameters.
     #[inline(always)]
-    fn uniform<L: LinkLaw>(
-        &self,
-        run: &Run,
-        st: &Positions<'_>,
-        lf: &mut [f64],
-        nf: Option<&mut [f64]>,
-    ) {
+    fn uniform<L: LinkLaw>(&self, run: &Run, st: &Positions<'_>, lf: &mut [f64]) {
         let s0 = run.start;
         let (k, z, s) = (self.lk[s0], self.lz[s0], self.ls[s0]);
-        self.each(run, st, lf, nf, |_, xa, pa, xb, pb| {
+        self.each(run, st, lf, |_, xa, pa, xb, pb| {
             L::force(k, z, s, xa, pa, xb, pb)
         });
     }
 
     /// A run of a law with parameters, each link with its own.
     #[inline(always)]
-    fn varied<L: LinkLaw>(
-        &self,
-        run: &Run,
-        st: &Positions<'_>,
-        lf: &mut [f64],
-        nf: Option<&mut [f64]>,
-    ) {
+    fn varied<L: LinkLaw>(&self, run: &Run, st: &Positions<'_>, lf: &mut [f64]) {
         let r = run.start..run.end;
         let (lk, lz, ls) = (&self.lk[r.clone()], &self.lz[r.clone()], &self.ls[r]);
-        self.each(run, st, lf, nf, |i, xa, pa, xb, pb| {
+        self.each(run, st, lf, |i, xa, pa, xb, pb| {
             L::force(lk[i], lz[i], ls[i], xa, pa, xb, pb)
         });
     }
 
     /// Runs `force(i, x1(n), x1(n-1), x2(n), x2(n-1))` for every link `i` of `run`, storing `f`
-    /// into `lf` and, when given, `-f` into `nf` (both exactly the run's range).
+    /// into `lf` (exactly the run's range).
     #[inline(always)]
     fn each(
         &self,
         run: &Run,
         st: &Positions<'_>,
         lf: &mut [f64],
-        nf: Option<&mut [f64]>,
-        force: impl Fn(usize, f64, f64, f64, f64) -> f64,
-    ) {
-        match nf {
-            None => self.each_into(run, st, lf, |_, _| {}, force),
-            Some(nf) => {
-                let nf = &mut nf[..run.end - run.start];
-                self.each_into(run, st, lf, |i, f| nf[i] = -f, force);
-            }
-        }
-    }
-
-    #[inline(always)]
-    fn each_into(
-        &self,
-        run: &Run,
-        st: &Positions<'_>,
-        lf: &mut [f64],
-        mut also: impl FnMut(usize, f64),
         force: impl Fn(usize, f64, f64, f64, f64) -> f64,
     ) {
         let n = run.end - run.start;
@@ -1511,7 +1437,6 @@ impl Kernel {
                 let (la, lb) = (&self.la[run.start..run.end], &self.lb[run.start..run.end]);
                 for (i, ((&a, &b), f)) in la.iter().zip(lb).zip(lf.iter_mut()).enumerate() {
                     *f = force(i, st.x(a), st.xp(a), st.x(b), st.xp(b));
-                    also(i, *f);
                 }
             }
             Ends::Step {
@@ -1531,14 +1456,12 @@ impl Kernel {
                     .enumerate()
                 {
                     *f = force(i, xa, pa, xb, pb);
-                    also(i, *f);
                 }
             }
             Ends::Step { a0, sa, b0, sb } => {
                 let (mut a, mut b) = (a0, b0);
                 for (i, f) in lf.iter_mut().enumerate() {
                     *f = force(i, st.x(a), st.xp(a), st.x(b), st.xp(b));
-                    also(i, *f);
                     a = a.wrapping_add(sa);
                     b = b.wrapping_add(sb);
                 }
@@ -1964,7 +1887,8 @@ impl LinkLaw for ButLaw {
 fn sum(edges: &[u32], sf: Forces<'_>) -> f64 {
     let mut f = 0.0;
     for &j in edges {
-        f += sf.get(j);
+        let (slot, mask) = signed(j);
+        f += f64::from_bits(sf.get(slot).to_bits() ^ mask);
     }
     f
 }
@@ -2218,11 +2142,11 @@ fn signed(j: u32) -> (u32, u64) {
 /// One block stepped by the pool's threads in lock-step (see `parallel.rs` for the discipline).
 ///
 /// The work of a phase is cut into chunks: the link chunks of every part (runs, whose slots `l`
-/// and `nl + l` of `sf` they write) and its material chunks (storage slots, whose next position
+/// of `sf` they write) and its material chunks (storage slots, whose next position
 /// they write in `pos[next]`). Each thread claims its own part's chunks first, then whatever is
 /// left of the others' (so a thread that is slower, for whatever reason, is helped rather than
 /// waited for); [`Claim::next`] hands each chunk to exactly one thread per step. Thread `t` also
-/// writes the slots `2 nl + enf` of its part, and copies `mats` of its part into the snapshot
+/// writes the slots `nl + enf` of its part, and copies `mats` of its part into the snapshot
 /// before the first step. Per step `n`, with `cur`, `prev`, `next` the [`Roles`] of step `n`:
 ///
 /// | phase | reads (everyone) | writes (the claimer of a chunk only) |
@@ -2231,7 +2155,7 @@ fn signed(j: u32) -> (u32, u64) {
 /// | materials (then barrier) | `pos[cur]`, `pos[prev]`, `sf` | the chunk's slots of `pos[next]` |
 ///
 /// Thread 0 also records the outputs during the materials phase: it reads only `pos[cur]` and the
-/// `+f` slots of `sf`, which nobody writes in that phase. The snapshot copies read the position
+/// link slots of `sf`, which nobody writes in that phase. The snapshot copies read the position
 /// buffers, which nobody writes before the first barrier. So within a phase no element is written
 /// by one thread and accessed by another, and the barriers order the phases.
 ///
@@ -2305,14 +2229,11 @@ impl Job<'_> {
                     while let Some(i) = self.claims[q].next(base + chunks.len()) {
                         for run in &parts[q].runs[chunks[i - base].clone()] {
                             let lf = self.sf.write(run.start..run.end);
-                            let nf = run.neg.then(|| self.sf.write(nl + run.start..nl + run.end));
-                            k.run_links(run, &state, lf, nf);
+                            k.run_links(run, &state, lf);
                         }
                     }
                 }
-                let ef = self
-                    .sf
-                    .write(2 * nl + part.enf.start..2 * nl + part.enf.end);
+                let ef = self.sf.write(nl + part.enf.start..nl + part.enf.end);
                 k.inputs(part.enf.clone(), n, ef);
             }
             barrier.wait()?;
