@@ -1597,13 +1597,27 @@ impl Kernel {
             let n = end - start;
             match (d, unit) {
                 (0, _) => self.mas_with(start..end, cur, prev, next, sf, 0..n, |_, _| 0.0),
-                (1, true) => self.mas_unit::<1>(start..end, cur, prev, next, sf, term),
-                (2, true) => self.mas_unit::<2>(start..end, cur, prev, next, sf, term),
-                (3, true) => self.mas_unit::<3>(start..end, cur, prev, next, sf, term),
-                (4, true) => self.mas_unit::<4>(start..end, cur, prev, next, sf, term),
-                (5, true) => self.mas_unit::<5>(start..end, cur, prev, next, sf, term),
-                (6, true) => self.mas_unit::<6>(start..end, cur, prev, next, sf, term),
-                _ => {
+                (_, true) => {
+                    // the signs of the terms as a mask (bit j: term j negated): the common
+                    // patterns get loops with the signs built in
+                    let mask = (0..d).fold(0u32, |m, j| m | u32::from(term(j).2) << j);
+                    let ms = (start..end, cur, prev, next, sf);
+                    match (d, mask) {
+                        (2, 0b10) => self.mas_signed::<2, 0b10>(ms, term), // a string
+                        (2, 0b01) => self.mas_signed::<2, 0b01>(ms, term),
+                        (2, 0b00) => self.mas_signed::<2, 0b00>(ms, term),
+                        (2, 0b11) => self.mas_signed::<2, 0b11>(ms, term),
+                        (4, 0b1010) => self.mas_signed::<4, 0b1010>(ms, term), // a membrane
+                        (1, _) => self.mas_unit::<1>(ms, term),
+                        (2, _) => self.mas_unit::<2>(ms, term),
+                        (3, _) => self.mas_unit::<3>(ms, term),
+                        (4, _) => self.mas_unit::<4>(ms, term),
+                        (5, _) => self.mas_unit::<5>(ms, term),
+                        (6, _) => self.mas_unit::<6>(ms, term),
+                        _ => self.mas_unit::<7>(ms, term), // (unreachable: d <= 6 here)
+                    }
+                }
+                (_, false) => {
                     self.mas_with(start..end, cur, prev, next, sf, 0..n, |i, sf| {
                         let i = i as u32;
                         let mut f = 0.0;
@@ -1630,13 +1644,10 @@ impl Kernel {
     #[inline(always)]
     fn mas_unit<const D: usize>(
         &self,
-        r: Range<usize>,
-        cur: &[f64],
-        prev: &[f64],
-        next: &mut [f64],
-        sf: Forces<'_>,
+        ms: MasArgs<'_, '_>,
         term: impl Fn(usize) -> (u32, u32, bool),
     ) {
+        let (r, cur, prev, next, sf) = ms;
         let n = r.len();
         let terms: [&[f64]; D] = std::array::from_fn(|j| {
             let s = term(j).0 as usize;
@@ -1647,6 +1658,33 @@ impl Kernel {
             let mut f = 0.0;
             for j in 0..D {
                 f += signs[j] * terms[j][i];
+            }
+            f
+        });
+    }
+
+    /// [`Kernel::mas_unit`] with the signs known at compile time: bit `j` of `NEG` set when term
+    /// `j` is subtracted (`F -= f`, as the reference writes it), clear when it is added.
+    #[inline(always)]
+    fn mas_signed<const D: usize, const NEG: u32>(
+        &self,
+        ms: MasArgs<'_, '_>,
+        term: impl Fn(usize) -> (u32, u32, bool),
+    ) {
+        let (r, cur, prev, next, sf) = ms;
+        let n = r.len();
+        let terms: [&[f64]; D] = std::array::from_fn(|j| {
+            let s = term(j).0 as usize;
+            &sf.0[s..s + n]
+        });
+        self.mas_with(r, cur, prev, next, sf, 0..n, |i, _| {
+            let mut f = 0.0;
+            for (j, t) in terms.iter().enumerate() {
+                if NEG >> j & 1 == 1 {
+                    f -= t[i];
+                } else {
+                    f += t[i];
+                }
             }
             f
         });
@@ -1725,6 +1763,16 @@ impl Roles {
         }
     }
 }
+
+/// The arguments of a MAS loop: storage slots, `x(n)` and `x(n-1)` of those MAS, where their
+/// `x(n+1)` goes, the forces.
+type MasArgs<'a, 'b> = (
+    Range<usize>,
+    &'a [f64],
+    &'a [f64],
+    &'b mut [f64],
+    Forces<'a>,
+);
 
 /// The widest vector instructions of this CPU that the stepping loops are compiled for. The
 /// loops never fuse a multiply and an add (Rust does not contract floating-point expressions),
