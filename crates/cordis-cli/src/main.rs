@@ -658,6 +658,10 @@ struct RenderArgs {
     /// Frames per engine block (output does not depend on it).
     #[arg(long, default_value_t = 4096, value_parser = clap::value_parser!(u32).range(1..=1_048_576))]
     block: u32,
+    /// Engine threads (default: every core). Used for networks of at least 20,000 modules; the
+    /// output is the same, bit for bit, whatever the number.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=256))]
+    threads: Option<u32>,
 }
 
 fn parse_set(s: &str) -> Result<(String, String), String> {

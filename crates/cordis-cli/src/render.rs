@@ -269,6 +269,11 @@ pub fn render(args: &RenderArgs) -> u8 {
     let frames = model.duration as usize;
     let mut data = vec![0.0f64; frames * channels];
     let mut engine = model.compile();
+    let threads = args.threads.map_or_else(
+        || std::thread::available_parallelism().map_or(1, |n| n.get()),
+        |t| t as usize,
+    );
+    engine.set_threads(threads);
     let block = args.block as usize;
     let started = Instant::now();
     let bar = ProgressBar::hidden();

@@ -921,3 +921,37 @@ fn graph_and_spice_exports() {
     expect_code!(r, 2);
     assert!(r.stderr.contains("did you mean"), "{}", r.stderr);
 }
+
+/// A network large enough for the engine's threads renders the same bytes on 1 and 2 threads.
+#[test]
+fn render_threads_give_the_same_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "big.cordis",
+        "rate 44100\nduration 300\nmembrane mem rows=120 cols=120 M=1 K=0.1 Z=0.0001 border=fixed\n\
+         enf hit mem[3, 4] signal=impulse(at=0, amp=1)\nsox a mem[60, 61]\nsox b mem[7, 100]\n",
+    );
+    let mut outputs = Vec::new();
+    for t in ["1", "2"] {
+        let out = format!("t{t}.f64");
+        let r = cordis(
+            dir.path(),
+            &[
+                "render",
+                "big.cordis",
+                "-o",
+                &out,
+                "--threads",
+                t,
+                "--block",
+                "37",
+            ],
+        );
+        expect_code!(r, 0);
+        outputs.push(std::fs::read(dir.path().join(&out)).unwrap());
+    }
+    assert_eq!(outputs[0].len(), 300 * 2 * 8);
+    assert!(outputs[0].iter().any(|&b| b != 0));
+    assert!(outputs[0] == outputs[1], "1 and 2 threads differ");
+}

@@ -181,6 +181,38 @@ fn membrane(rows: usize, cols: usize) -> Model {
     }
 }
 
+/// `model` in the plain-text netlist format of the C baseline kit (`gen_models.py`): the C generic
+/// kernel `cref.c` reads it, so it can be timed on every benchmark model (the kit's own generator
+/// has strings and membranes only). Node `i` is material `i`; MAS, SOL and REF only.
+fn netlist(model: &Model) -> String {
+    use std::fmt::Write;
+    let net = &model.net;
+    let mut s = format!(
+        "# oracle netlist v1 -- model {} (written by cordis's engine benchmark)\ncounts {} {} 0 1\n",
+        model.name,
+        net.materials.len(),
+        net.links.len()
+    );
+    for (i, m) in net.materials.iter().enumerate() {
+        let (x0, x1) = m.initial_state();
+        match m {
+            Material::Mas { m, .. } => writeln!(s, "node {i} mass {m:?} 0.0 {x0:?} {x1:?}"),
+            Material::Sol { .. } => writeln!(s, "node {i} ground {x0:?}"),
+            _ => panic!("netlists hold MAS and SOL only"),
+        }
+        .unwrap();
+    }
+    for (l, link) in net.links.iter().enumerate() {
+        let Interaction::Ref { k, z } = link.law else {
+            panic!("netlists hold REF links only")
+        };
+        let (a, b) = (link.a.index(), link.b.index());
+        writeln!(s, "link {l} springDamper {a} {b} {k:?} {z:?} 0.0 0.0").unwrap();
+    }
+    writeln!(s, "out 0 {}", model.out.index()).unwrap();
+    s
+}
+
 /// 64-bit LCG (Knuth's MMIX constants); the high bits are the random ones.
 struct Lcg(u64);
 
@@ -426,17 +458,15 @@ fn usage() -> ! {
         "usage: cargo bench -p cordis-core --bench engine -- [string [N]] [but [N]] [lnl [N]] \
          [membrane [R C | RxC]] [random [N]]...\n(no model: every default model)\n   \
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
-         threads, default N = 100000 masses, T = 2)"
+         threads, default N = 100000 masses, T = 2)\n   \
+         or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
+         models as netlists for the C generic kernel cref.c)"
     );
     std::process::exit(2)
 }
 
 /// Model selection from the command line. Flags (cargo passes `--bench`) are ignored.
-fn parse_args() -> Vec<Spec> {
-    let args: Vec<String> = std::env::args()
-        .skip(1)
-        .filter(|a| !a.starts_with('-'))
-        .collect();
+fn parse_args(args: &[String]) -> Vec<Spec> {
     let num = |s: &str| s.parse::<usize>().ok().filter(|&n| n > 0);
     let mut specs = Vec::new();
     let mut i = 0;
@@ -602,7 +632,17 @@ fn main() {
             .unwrap_or(2);
         return threads_mode(num(1, 100_000), threads, args.get(3..).unwrap_or(&[]));
     }
-    let specs = parse_args();
+    if args.first().map(String::as_str) == Some("netlist") {
+        let Some(dir) = args.get(1) else { usage() };
+        for spec in &parse_args(&args[2..]) {
+            let model = build(spec);
+            let path = std::path::Path::new(dir).join(format!("{}.net", model.name));
+            std::fs::write(&path, netlist(&model)).expect("netlist written");
+            println!("{}", path.display());
+        }
+        return;
+    }
+    let specs = parse_args(&args);
     let work = work();
     println!(
         "cordis engine vs in-process generic baseline (Rust port of cref.c, ideal schedule); \

@@ -12,13 +12,12 @@
 /// and otherwise `y[i] + (x - x[i]) * ((y[i+1] - y[i]) / (x[i+1] - x[i]))`.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct Curve {
-    xs: Vec<f64>,
-    ys: Vec<f64>,
-    /// `(y[i+1] - y[i]) / (x[i+1] - x[i])`, computed once (the same division, so the same bits as
-    /// computing it at every evaluation); unused for jumps.
-    slopes: Vec<f64>,
-    /// `∫ from x[0] to x[i]` of the curve (trapezoids; a jump has no width), for the antiderivative.
-    cumulative: Vec<f64>,
+    /// `n` points as one allocation (a curve is 16 bytes wherever it is stored): the abscissas
+    /// `x[0..n]`, the values `y[0..n]`, the slopes `(y[i+1] - y[i]) / (x[i+1] - x[i])` (`n - 1`,
+    /// computed once: the same division, so the same bits as computing it at every evaluation;
+    /// unused for jumps), and `∫ from x[0] to x[i]` of the curve (`n`: trapezoids, a jump has no
+    /// width) for the antiderivative. Empty for the zero curve.
+    table: Box<[f64]>,
 }
 
 /// A curve of at most `N` points prepared for the engine's LNL loops: abscissas padded with NaN
@@ -34,12 +33,12 @@ pub(crate) struct SmallCurve<const N: usize> {
 impl<const N: usize> SmallCurve<N> {
     /// `None` when the curve has more than `N` points (`N` at most 8).
     pub(crate) fn new(c: &Curve) -> Option<Self> {
-        let n = c.xs.len();
+        let n = c.xs().len();
         if n > N || N > 8 {
             return None;
         }
         let mut xs = [f64::NAN; N];
-        xs[..n].copy_from_slice(&c.xs);
+        xs[..n].copy_from_slice(&c.xs());
         // `pieces[count]` for `count` points whose abscissa is `<= x`: the three cases of
         // `Curve::eval` (before the first point, on a segment, after the last point)
         let mut pieces = [Piece::default(); 9];
@@ -51,15 +50,15 @@ impl<const N: usize> SmallCurve<N> {
                 }
             } else if count == 0 || count == n {
                 Piece {
-                    y: c.ys[count.saturating_sub(1)],
+                    y: c.ys()[count.saturating_sub(1)],
                     flat: 1.0,
                     ..Piece::default()
                 }
             } else {
                 Piece {
-                    x0: c.xs[count - 1],
-                    y: c.ys[count - 1],
-                    slope: c.slopes[count - 1],
+                    x0: c.xs()[count - 1],
+                    y: c.ys()[count - 1],
+                    slope: c.slopes()[count - 1],
                     flat: 0.0,
                 }
             };
@@ -105,7 +104,7 @@ pub(crate) struct ExactCurve<const N: usize> {
 impl<const N: usize> ExactCurve<N> {
     /// `None` unless the curve has exactly `N` points, `N >= 2`.
     pub(crate) fn new(c: &Curve) -> Option<Self> {
-        if N < 2 || c.xs.len() != N {
+        if N < 2 || c.xs().len() != N {
             return None;
         }
         let mut e = ExactCurve {
@@ -113,9 +112,9 @@ impl<const N: usize> ExactCurve<N> {
             ys: [0.0; N],
             slopes: [0.0; N],
         };
-        e.xs.copy_from_slice(&c.xs);
-        e.ys.copy_from_slice(&c.ys);
-        e.slopes[..N - 1].copy_from_slice(&c.slopes);
+        e.xs.copy_from_slice(&c.xs());
+        e.ys.copy_from_slice(&c.ys());
+        e.slopes[..N - 1].copy_from_slice(&c.slopes());
         Some(e)
     }
 
@@ -222,33 +221,68 @@ impl Curve {
             }
             cumulative.push(acc);
         }
+        let mut table = Vec::with_capacity(4 * points.len());
+        table.extend(points.iter().map(|p| p.0));
+        table.extend(points.iter().map(|p| p.1));
+        table.extend(slopes);
+        table.extend(cumulative);
         Ok(Curve {
-            xs: points.iter().map(|p| p.0).collect(),
-            ys: points.iter().map(|p| p.1).collect(),
-            slopes,
-            cumulative,
+            table: table.into_boxed_slice(),
         })
+    }
+
+    /// Number of points, from the table's length `4 n - 1` (0 for the zero curve).
+    #[inline(always)]
+    fn n(&self) -> usize {
+        self.table.len().div_ceil(4)
+    }
+
+    /// The abscissas.
+    #[inline(always)]
+    fn xs(&self) -> &[f64] {
+        &self.table[..self.n()]
+    }
+
+    /// The values.
+    #[inline(always)]
+    fn ys(&self) -> &[f64] {
+        let n = self.n();
+        &self.table[n..2 * n]
+    }
+
+    /// The slopes of the `n - 1` segments.
+    #[inline(always)]
+    fn slopes(&self) -> &[f64] {
+        let n = self.n();
+        &self.table[2 * n..(3 * n).saturating_sub(1)]
+    }
+
+    /// `∫ from x[0] to x[i]`.
+    #[inline(always)]
+    fn cumulative(&self) -> &[f64] {
+        let n = self.n();
+        &self.table[(3 * n).saturating_sub(1)..]
     }
 
     /// The points, in order.
     pub fn points(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
-        self.xs.iter().copied().zip(self.ys.iter().copied())
+        self.xs().iter().copied().zip(self.ys().iter().copied())
     }
 
     /// Number of points.
     pub fn len(&self) -> usize {
-        self.xs.len()
+        self.xs().len()
     }
 
     /// True for the zero curve (no points).
     pub fn is_empty(&self) -> bool {
-        self.xs.is_empty()
+        self.xs().is_empty()
     }
 
     /// The curve's value at `x` (see the type's documentation for the exact arithmetic).
     #[inline]
     pub fn eval(&self, x: f64) -> f64 {
-        let n = self.xs.len();
+        let n = self.xs().len();
         if n == 0 {
             return 0.0;
         }
@@ -256,40 +290,40 @@ impl Curve {
         // are sorted, so a branch-free count over a short curve (the usual LNL) finds the same
         // `count` as the binary search, faster.
         let count = if n <= 8 {
-            self.xs.iter().map(|&a| usize::from(a <= x)).sum()
+            self.xs().iter().map(|&a| usize::from(a <= x)).sum()
         } else {
-            self.xs.partition_point(|&a| a <= x)
+            self.xs().partition_point(|&a| a <= x)
         };
         if count == 0 {
-            return self.ys[0];
+            return self.ys()[0];
         }
         let i = count - 1;
         if i == n - 1 {
-            return self.ys[i];
+            return self.ys()[i];
         }
         // x[i] <= x < x[i+1]: a proper segment, never a jump.
-        self.ys[i] + (x - self.xs[i]) * self.slopes[i]
+        self.ys()[i] + (x - self.xs()[i]) * self.slopes()[i]
     }
 
     /// The slope of the segment that contains `x` (0 outside the points and at a jump's abscissa
     /// only when the segment after it is flat). Used by analysis to linearise an LNL.
     pub fn slope(&self, x: f64) -> f64 {
-        let n = self.xs.len();
-        let count = self.xs.partition_point(|&a| a <= x);
+        let n = self.xs().len();
+        let count = self.xs().partition_point(|&a| a <= x);
         if count == 0 || count >= n {
             return 0.0;
         }
         let i = count - 1;
-        (self.ys[i + 1] - self.ys[i]) / (self.xs[i + 1] - self.xs[i])
+        (self.ys()[i + 1] - self.ys()[i]) / (self.xs()[i + 1] - self.xs()[i])
     }
 
     /// The largest absolute slope over all finite segments (a worst-case stiffness).
     pub fn max_abs_slope(&self) -> f64 {
         let mut best = 0.0f64;
-        for i in 1..self.xs.len() {
-            let dx = self.xs[i] - self.xs[i - 1];
+        for i in 1..self.xs().len() {
+            let dx = self.xs()[i] - self.xs()[i - 1];
             if dx > 0.0 {
-                best = best.max(((self.ys[i] - self.ys[i - 1]) / dx).abs());
+                best = best.max(((self.ys()[i] - self.ys()[i - 1]) / dx).abs());
             }
         }
         best
@@ -297,20 +331,20 @@ impl Curve {
 
     /// An antiderivative: `∫ from x[0] to x` of the curve (constant extensions included).
     pub fn antiderivative(&self, x: f64) -> f64 {
-        let n = self.xs.len();
+        let n = self.xs().len();
         if n == 0 {
             return 0.0;
         }
-        let count = self.xs.partition_point(|&a| a <= x);
+        let count = self.xs().partition_point(|&a| a <= x);
         if count == 0 {
-            return self.ys[0] * (x - self.xs[0]);
+            return self.ys()[0] * (x - self.xs()[0]);
         }
         let i = count - 1;
-        let t = x - self.xs[i];
+        let t = x - self.xs()[i];
         if i == n - 1 {
-            return self.cumulative[i] + self.ys[i] * t;
+            return self.cumulative()[i] + self.ys()[i] * t;
         }
-        self.cumulative[i] + t * (self.ys[i] + 0.5 * self.slopes[i] * t)
+        self.cumulative()[i] + t * (self.ys()[i] + 0.5 * self.slopes()[i] * t)
     }
 
     /// `∫ from 0 to x` of the curve: the potential energy of an LNL elastic curve at elongation `x`.

@@ -298,6 +298,7 @@ struct Kernel {
     lb: Vec<u32>,
     lk: Vec<f64>,
     lz: Vec<f64>,
+    /// BUT thresholds (empty when the network has no BUT)
     ls: Vec<f64>,
     /// The distinct LNL laws (elastic and viscous curves), and which one each link has (0 for
     /// the links of other laws)
@@ -958,7 +959,12 @@ impl Kernel {
         }
         // LNL laws: one per stretch of identical curves.
         let mut lnl: Vec<Lnl> = Vec::new();
-        let mut lnl_of = vec![0u32; nl];
+        // (kept only when some link needs it: a few bytes per module count on large models)
+        let mut lnl_of = if laws.contains(&Law::Lnl) {
+            vec![0u32; nl]
+        } else {
+            Vec::new()
+        };
         for l in 0..nl {
             if laws[l] != Law::Lnl {
                 continue;
@@ -969,6 +975,11 @@ impl Kernel {
             lnl_of[l] = (lnl.len() - 1) as u32;
         }
         drop(curves);
+        let ls = if laws.contains(&Law::But) {
+            ls
+        } else {
+            Vec::new() // only BUT has an S
+        };
 
         // Within runs, stretches whose ends are arithmetic progressions need no index.
         let runs: Vec<Run> = runs
@@ -1404,7 +1415,11 @@ impl Kernel {
     #[inline(always)]
     fn uniform<L: LinkLaw>(&self, run: &Run, st: &Positions<'_>, lf: &mut [f64]) {
         let s0 = run.start;
-        let (k, z, s) = (self.lk[s0], self.lz[s0], self.ls[s0]);
+        let (k, z, s) = (
+            self.lk[s0],
+            self.lz[s0],
+            self.ls.get(s0).map_or(0.0, |s| *s),
+        );
         self.each(run, st, lf, |_, xa, pa, xb, pb| {
             L::force(k, z, s, xa, pa, xb, pb)
         });
@@ -1414,7 +1429,9 @@ impl Kernel {
     #[inline(always)]
     fn varied<L: LinkLaw>(&self, run: &Run, st: &Positions<'_>, lf: &mut [f64]) {
         let r = run.start..run.end;
-        let (lk, lz, ls) = (&self.lk[r.clone()], &self.lz[r.clone()], &self.ls[r]);
+        let (lk, lz) = (&self.lk[r.clone()], &self.lz[r.clone()]);
+        // (no S without a BUT: the laws that have none ignore the slice they are given)
+        let ls = self.ls.get(r).unwrap_or(lk);
         self.each(run, st, lf, |i, xa, pa, xb, pb| {
             L::force(lk[i], lz[i], ls[i], xa, pa, xb, pb)
         });

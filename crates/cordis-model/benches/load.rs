@@ -216,6 +216,15 @@ fn bench(name: &str, text: &str) {
         per(engine_live),
         per(engine_peak)
     );
+    let ready = per(live + engine_live);
+    println!(
+        "  ready to run (model + engine live) {ready:.1} B/module   target {TARGET_BYTES:.0}: {}",
+        if ready < TARGET_BYTES {
+            "met"
+        } else {
+            "NOT met"
+        }
+    );
 }
 
 fn main() {
