@@ -38,7 +38,7 @@ impl<const N: usize> SmallCurve<N> {
             return None;
         }
         let mut xs = [f64::NAN; N];
-        xs[..n].copy_from_slice(&c.xs());
+        xs[..n].copy_from_slice(c.xs());
         // `pieces[count]` for `count` points whose abscissa is `<= x`: the three cases of
         // `Curve::eval` (before the first point, on a segment, after the last point)
         let mut pieces = [Piece::default(); 9];
@@ -112,9 +112,9 @@ impl<const N: usize> ExactCurve<N> {
             ys: [0.0; N],
             slopes: [0.0; N],
         };
-        e.xs.copy_from_slice(&c.xs());
-        e.ys.copy_from_slice(&c.ys());
-        e.slopes[..N - 1].copy_from_slice(&c.slopes());
+        e.xs.copy_from_slice(c.xs());
+        e.ys.copy_from_slice(c.ys());
+        e.slopes[..N - 1].copy_from_slice(c.slopes());
         Some(e)
     }
 
