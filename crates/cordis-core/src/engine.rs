@@ -456,8 +456,8 @@ impl Clone for PoolSlot {
 /// run is cut into blocks, and of the number of threads (see [`Engine::set_threads`]).
 ///
 /// Storage: material modules are reordered by kind (MAS, CEL, ENX, SOL) so that each kind's update
-/// is one tight loop. Links stay in declaration order, cut into runs of consecutive links with the
-/// same law (and, for long enough stretches, the same parameters). Each link's force is computed
+/// is one tight loop. Links are stored in an order chosen for speed (`link_order` in `engine.rs`) and cut into
+/// runs of one law (and, for long enough stretches, the same parameters). Each link's force is computed
 /// once per step into its own slot; each material then sums the forces of its links in their
 /// declaration order, then its ENF inputs in theirs: the floating-point sums are exactly those of
 /// the plain, one-module-at-a-time definition, and the output equals the reference stepper bit for
