@@ -1666,10 +1666,7 @@ impl Kernel {
     ) {
         let (r, cur, prev, next, sf) = ms;
         let n = r.len();
-        let terms: [&[f64]; D] = std::array::from_fn(|j| {
-            let s = term(j).0 as usize;
-            &sf.0[s..s + n]
-        });
+        let terms = unit_terms::<D>(sf, n, &term);
         let signs: [f64; D] = std::array::from_fn(|j| if term(j).2 { -1.0 } else { 1.0 });
         self.mas_with(r, cur, prev, next, sf, 0..n, |i, _| {
             let mut f = 0.0;
@@ -1690,10 +1687,7 @@ impl Kernel {
     ) {
         let (r, cur, prev, next, sf) = ms;
         let n = r.len();
-        let terms: [&[f64]; D] = std::array::from_fn(|j| {
-            let s = term(j).0 as usize;
-            &sf.0[s..s + n]
-        });
+        let terms = unit_terms::<D>(sf, n, &term);
         self.mas_with(r, cur, prev, next, sf, 0..n, |i, _| {
             let mut f = 0.0;
             for (j, t) in terms.iter().enumerate() {
@@ -1779,6 +1773,20 @@ impl Roles {
             _ => (p2, p1, p0),
         }
     }
+}
+
+/// The `D` slices of `sf` that the `n` MAS of a unit-step segment read, term `j` from slot
+/// `term(j).0` on.
+#[inline(always)]
+fn unit_terms<'a, const D: usize>(
+    sf: Forces<'a>,
+    n: usize,
+    term: &impl Fn(usize) -> (u32, u32, bool),
+) -> [&'a [f64]; D] {
+    std::array::from_fn(|j| {
+        let s = term(j).0 as usize;
+        &sf.0[s..s + n]
+    })
 }
 
 /// The arguments of a MAS loop: storage slots, `x(n)` and `x(n-1)` of those MAS, where their

@@ -24,18 +24,7 @@ fn engine(net: &Network, threads: usize) -> Engine {
 
 /// Renders `steps` frames on `threads` threads in blocks of `block`.
 fn render_threads(net: &Network, steps: usize, block: usize, threads: usize) -> Vec<f64> {
-    let mut e = engine(net, threads);
-    let ch = e.channels();
-    let mut out = vec![0.0; steps * ch];
-    let mut done = 0;
-    while done < steps {
-        let frames = block.min(steps - done);
-        e.process(frames, &mut out[done * ch..(done + frames) * ch])
-            .expect("stable network");
-        done += frames;
-    }
-    assert_eq!(e.step_index(), steps as u64);
-    out
+    render_with(engine(net, threads), steps, block)
 }
 
 /// Every thread count and block size gives `expected` (the single-thread engine's output, itself

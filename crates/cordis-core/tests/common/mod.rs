@@ -276,7 +276,11 @@ pub fn random_network(seed: u64, n: usize, links_per_mass: usize) -> Network {
 
 /// Renders with the engine in blocks of `block` frames.
 pub fn render(net: &Network, steps: usize, block: usize) -> Vec<f64> {
-    let mut e = cordis_core::Engine::new(net);
+    render_with(cordis_core::Engine::new(net), steps, block)
+}
+
+/// Renders `steps` frames with `e` in blocks of `block` frames.
+pub fn render_with(mut e: cordis_core::Engine, steps: usize, block: usize) -> Vec<f64> {
     let ch = e.channels();
     let mut out = vec![0.0; steps * ch];
     let mut done = 0;
@@ -286,6 +290,7 @@ pub fn render(net: &Network, steps: usize, block: usize) -> Vec<f64> {
             .expect("stable network");
         done += frames;
     }
+    assert_eq!(e.step_index(), steps as u64);
     out
 }
 
