@@ -338,6 +338,8 @@ struct Kernel {
 #[derive(Clone, Debug)]
 struct State {
     n: u64,
+    /// `n % 3`, kept in step with `n` (see [`State::set_step`])
+    c: usize,
     /// `pos[n % 3]` is `x(n)`, `pos[(n + 2) % 3]` is `x(n-1)`, `pos[(n + 1) % 3]` is `x(n-2)`
     /// (storage order; SOL positions in all three).
     pos: [Vec<f64>; 3],
@@ -489,6 +491,7 @@ impl Engine {
         let nm = k.nm;
         let mut st = State {
             n: 0,
+            c: 0,
             pos: [vec![0.0; nm], vec![0.0; nm], vec![0.0; nm]],
             sf: vec![0.0; k.sf_len],
             snap: [vec![0.0; k.n_mce], vec![0.0; k.n_mce]],
@@ -700,7 +703,7 @@ impl Engine {
             self.pool = PoolSlot(None);
             panic!("an engine worker thread panicked");
         }
-        self.st.n = n0 + frames as u64;
+        self.st.set_step(n0 + frames as u64);
         self.check_block(n0, frames, out)
     }
 
@@ -740,6 +743,12 @@ impl Engine {
 }
 
 impl State {
+    /// Step index `n`, and which buffer holds `x(n)`.
+    fn set_step(&mut self, n: u64) {
+        self.n = n;
+        self.c = (n % 3) as usize;
+    }
+
     /// Where `sf` starts within a 64-byte cache line, in slots.
     fn line(&self) -> usize {
         self.sf.as_ptr() as usize / std::mem::size_of::<f64>() % 8
@@ -754,7 +763,7 @@ impl State {
     }
 
     fn reset(&mut self, k: &Kernel) {
-        self.n = 0;
+        self.set_step(0);
         self.pos[0].copy_from_slice(&k.x_init);
         self.pos[1].copy_from_slice(&k.x_init); // (x(n+1) is written over the mobile ones)
         self.pos[2].copy_from_slice(&k.xp_init);
@@ -771,7 +780,7 @@ impl State {
 
     /// Back to the snapshot taken at step `n0`.
     fn restore_snapshot(&mut self, n0: u64, n_mce: usize) {
-        self.n = n0;
+        self.set_step(n0);
         let r = Roles::of(n0);
         self.pos[r.cur][..n_mce].copy_from_slice(&self.snap[0]);
         self.pos[r.prev][..n_mce].copy_from_slice(&self.snap[1]);
@@ -782,7 +791,9 @@ impl State {
     fn step(&mut self, k: &Kernel, frame: &mut [f64]) {
         let n = self.n;
         let nl = k.nl;
-        let (cur, prev, next) = Roles::of(n).split(&mut self.pos);
+        let roles = Roles::at(self.c);
+        debug_assert_eq!(self.c as u64, n % 3);
+        let (cur, prev, next) = roles.split(&mut self.pos);
         k.inputs(0..k.enf.len(), n, &mut self.sf[nl..]);
         let state = Positions::new(k, cur, prev);
         for tile in &k.tiles {
@@ -795,6 +806,7 @@ impl State {
         }
         k.record(cur, &self.sf[..nl], frame);
         self.n = n + 1;
+        self.c = roles.next;
     }
 }
 
@@ -1755,7 +1767,12 @@ struct Roles {
 impl Roles {
     #[inline(always)]
     fn of(n: u64) -> Roles {
-        let c = (n % 3) as usize;
+        Roles::at((n % 3) as usize)
+    }
+
+    /// The roles when `x(n)` is in buffer `c` (`n % 3`, tracked without dividing).
+    #[inline(always)]
+    fn at(c: usize) -> Roles {
         Roles {
             cur: c,
             prev: (c + 2) % 3,
@@ -1882,7 +1899,7 @@ impl<O: FnMut(&StepView<'_>)> Vectorised for Block<'_, '_, O> {
         let ch = k.channels.len();
         for frame in 0..frames {
             st.step(k, &mut out[frame * ch..(frame + 1) * ch]);
-            let r = Roles::of(st.n);
+            let r = Roles::at(st.c);
             observe(&StepView {
                 n: st.n - 1,
                 k,
