@@ -90,9 +90,10 @@ impl<const N: usize> SmallCurve<N> {
     }
 }
 
-/// A curve of exactly `N >= 2` points prepared for the engine's LNL loops: the points and the
+/// A curve of exactly `N` points prepared for the engine's LNL loops: the points and the
 /// slopes of [`Curve::eval`], evaluated with `N - 2` selects and two compares, no branch and no
-/// indexed load (so a loop over links is vectorised). The same bits as `Curve::eval`.
+/// indexed load (so a loop over links is vectorised); `N = 0` is the zero curve (a sticking
+/// spring's viscous curve). The same bits as `Curve::eval`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct ExactCurve<const N: usize> {
     xs: [f64; N],
@@ -102,9 +103,9 @@ pub(crate) struct ExactCurve<const N: usize> {
 }
 
 impl<const N: usize> ExactCurve<N> {
-    /// `None` unless the curve has exactly `N` points, `N >= 2`.
+    /// `None` unless the curve has exactly `N` points, `N` being 0 or at least 2.
     pub(crate) fn new(c: &Curve) -> Option<Self> {
-        if N < 2 || c.xs().len() != N {
+        if N == 1 || c.xs().len() != N {
             return None;
         }
         let mut e = ExactCurve {
@@ -114,7 +115,9 @@ impl<const N: usize> ExactCurve<N> {
         };
         e.xs.copy_from_slice(c.xs());
         e.ys.copy_from_slice(c.ys());
-        e.slopes[..N - 1].copy_from_slice(c.slopes());
+        if N > 0 {
+            e.slopes[..N - 1].copy_from_slice(c.slopes());
+        }
         Some(e)
     }
 
@@ -123,6 +126,9 @@ impl<const N: usize> ExactCurve<N> {
     /// chosen by keeping the last `j < N - 1` with `x[j] <= x` (the abscissas are sorted).
     #[inline(always)]
     pub(crate) fn eval(&self, x: f64) -> f64 {
+        if N < 2 {
+            return 0.0; // (`N` is 0: `new` refuses 1)
+        }
         let (mut x0, mut y, mut slope) = (self.xs[0], self.ys[0], self.slopes[0]);
         for j in 1..N - 1 {
             let past = self.xs[j] <= x;
@@ -392,15 +398,22 @@ mod tests {
             let s4 = SmallCurve::<4>::new(&c);
             let s8 = SmallCurve::<8>::new(&c).unwrap();
             assert_eq!(s4.is_some(), pts.len() <= 4);
-            let (e2, e3, e4) = (
+            let (e0, e2, e3, e4) = (
+                ExactCurve::<0>::new(&c),
                 ExactCurve::<2>::new(&c),
                 ExactCurve::<3>::new(&c),
                 ExactCurve::<4>::new(&c),
             );
             assert_eq!(
-                [e2.is_some(), e3.is_some(), e4.is_some()],
-                [pts.len() == 2, pts.len() == 3, pts.len() == 4]
+                [e0.is_some(), e2.is_some(), e3.is_some(), e4.is_some()],
+                [
+                    pts.is_empty(),
+                    pts.len() == 2,
+                    pts.len() == 3,
+                    pts.len() == 4
+                ]
             );
+            assert!(ExactCurve::<1>::new(&c).is_none());
             for &x in &xs {
                 let want = c.eval(x).to_bits();
                 assert_eq!(s8.eval(x).to_bits(), want, "{pts:?} at {x}");
@@ -408,6 +421,7 @@ mod tests {
                     assert_eq!(s4.eval(x).to_bits(), want, "{pts:?} at {x}");
                 }
                 let exact = [
+                    e0.map(|e| e.eval(x)),
                     e2.map(|e| e.eval(x)),
                     e3.map(|e| e.eval(x)),
                     e4.map(|e| e.eval(x)),

@@ -131,8 +131,8 @@ struct Cel {
 /// exactly as [`Curve::eval`].
 #[derive(Clone, Debug)]
 enum Lnl {
-    /// both curves of 2 to 4 points (the usual springs, contacts and dampers), each evaluated
-    /// with selects in a loop the compiler vectorises
+    /// both curves of 0 or 2 to 4 points (the usual springs, contacts, dampers and sticking
+    /// springs), each evaluated with selects in a loop the compiler vectorises
     Exact(ExactPair),
     Small8(Box<(SmallCurve<8>, SmallCurve<8>)>),
     Any(Box<(Curve, Curve)>),
@@ -187,6 +187,13 @@ macro_rules! exact_pairs {
 }
 
 exact_pairs!(
+    (P00, 0, 0),
+    (P20, 2, 0),
+    (P30, 3, 0),
+    (P40, 4, 0),
+    (P02, 0, 2),
+    (P03, 0, 3),
+    (P04, 0, 4),
     (P22, 2, 2),
     (P23, 2, 3),
     (P24, 2, 4),

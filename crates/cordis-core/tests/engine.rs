@@ -250,3 +250,72 @@ fn non_power_of_two_masses_match_the_reference_too() {
         None
     );
 }
+
+/// Sticking springs (4-point elastic curves with jumps, zero viscous curve) and dampers of every
+/// curve size the engine evaluates with selects, in runs long enough to be uniform: two strings
+/// that swing past each other, so the springs catch, stretch and let go.
+#[test]
+fn sticking_springs_and_small_curves_match_the_reference() {
+    let mut net = Network::new();
+    let n = 24;
+    let mut ends = Vec::new();
+    for side in 0..2 {
+        let g = net.add_material(Material::Sol { x0: 0.0 });
+        let mut prev = g;
+        for i in 0..n {
+            let v0 = if side == 0 { 0.02 } else { -0.02 } * (1.0 + (i % 3) as f64);
+            let m = net.add_material(Material::Mas {
+                m: 1.0,
+                x0: 0.001 * side as f64,
+                v0,
+            });
+            net.add_link(Interaction::Ref { k: 0.05, z: 1e-4 }, prev, m);
+            prev = m;
+            ends.push(m);
+        }
+    }
+    let (s, k) = (0.01, 0.02);
+    let stick = cordis_core::Curve::new(&[(-s, 0.0), (-s, -k * s), (s, k * s), (s, 0.0)]).unwrap();
+    let curves: Vec<cordis_core::Curve> = [
+        vec![],
+        vec![(-1.0, -1e-4), (1.0, 1e-4)],
+        vec![(-1.0, -2e-4), (0.0, 0.0), (1.0, 1e-4)],
+        vec![(-1.0, -2e-4), (-0.1, 0.0), (0.1, 0.0), (1.0, 1e-4)],
+    ]
+    .iter()
+    .map(|p| cordis_core::Curve::new(p).unwrap())
+    .collect();
+    for (i, z) in curves.iter().enumerate() {
+        // a uniform run of 10 sticking springs per viscous curve, between the two strings
+        for j in 0..10 {
+            let (a, b) = (ends[(i * 5 + j) % n], ends[n + (i * 7 + j) % n]);
+            net.add_link(
+                Interaction::Lnl {
+                    lk: stick.clone(),
+                    lz: z.clone(),
+                },
+                a,
+                b,
+            );
+        }
+        // and the viscous curve alone, with an elastic one of another size
+        for j in 0..10 {
+            net.add_link(
+                Interaction::Lnl {
+                    lk: curves[(i + 1) % 4].clone(),
+                    lz: z.clone(),
+                },
+                ends[(j * 3 + i) % n],
+                ends[n + (j * 5 + i) % n],
+            );
+        }
+    }
+    for m in ends.iter().step_by(5) {
+        net.add_position_output(*m);
+    }
+    let steps = 8000;
+    let expected = reference(&net, steps);
+    let got = render(&net, steps, 333);
+    assert_eq!(first_bit_difference(&got, &expected), None);
+    assert!(got.iter().any(|v| *v != 0.0));
+}
