@@ -764,11 +764,11 @@ impl State {
     }
 
     fn cur(&self) -> &[f64] {
-        &self.pos[Roles::of(self.n).cur]
+        &self.pos[Roles::at(self.c).cur]
     }
 
     fn prev(&self) -> &[f64] {
-        &self.pos[Roles::of(self.n).prev]
+        &self.pos[Roles::at(self.c).prev]
     }
 
     fn reset(&mut self, k: &Kernel) {
@@ -782,7 +782,7 @@ impl State {
 
     /// Saves `x(n)`, `x(n-1)` of the moving materials (SOL positions never change).
     fn take_snapshot(&mut self, n_mce: usize) {
-        let r = Roles::of(self.n);
+        let r = Roles::at(self.c);
         self.snap[0].copy_from_slice(&self.pos[r.cur][..n_mce]);
         self.snap[1].copy_from_slice(&self.pos[r.prev][..n_mce]);
     }
@@ -790,7 +790,7 @@ impl State {
     /// Back to the snapshot taken at step `n0`.
     fn restore_snapshot(&mut self, n0: u64, n_mce: usize) {
         self.set_step(n0);
-        let r = Roles::of(n0);
+        let r = Roles::at(self.c);
         self.pos[r.cur][..n_mce].copy_from_slice(&self.snap[0]);
         self.pos[r.prev][..n_mce].copy_from_slice(&self.snap[1]);
     }
@@ -2296,6 +2296,7 @@ impl Job<'_> {
         let nl = k.nl;
         let mats = part.mats.clone();
         let r0 = Roles::of(self.n0);
+        let mut r = r0;
         // SAFETY (all blocks below): each access follows the table in the type's documentation:
         // shared reads of buffers nobody writes in the current phase, exclusive writes to the
         // ranges of a chunk this thread claimed (disjoint from every other chunk's:
@@ -2316,7 +2317,6 @@ impl Job<'_> {
         let threads = parts.len();
         for s in 0..self.frames {
             let n = self.n0 + s as u64;
-            let r = Roles::of(n);
             // SAFETY: links phase (see above).
             unsafe {
                 let (cur, prev) = (self.pos[r.cur].read(), self.pos[r.prev].read());
@@ -2358,6 +2358,7 @@ impl Job<'_> {
                 }
             }
             barrier.wait()?;
+            r = Roles::at(r.next);
         }
         Ok(())
     }
@@ -2369,7 +2370,7 @@ mod tests {
 
     /// Every vector width this CPU has steps to the same bits as the scalar build, on a string
     /// and a membrane whose links come in uniform and varied runs of every law (LNL curves of 2,
-    /// 3 and 9 points), with BUT contacts that open and close, ENF inputs and every output kind.
+    /// 3 and 9 points), BUT thresholds of both signs, an ENF input and every output kind.
     #[test]
     fn every_vector_width_gives_the_same_bits() {
         let mut net = Network::new();

@@ -285,10 +285,12 @@ fn sticking_springs_and_small_curves_match_the_reference() {
     .iter()
     .map(|p| cordis_core::Curve::new(p).unwrap())
     .collect();
+    let mut springs = Vec::new();
     for (i, z) in curves.iter().enumerate() {
         // a uniform run of 10 sticking springs per viscous curve, between the two strings
         for j in 0..10 {
             let (a, b) = (ends[(i * 5 + j) % n], ends[n + (i * 7 + j) % n]);
+            springs.push(cordis_core::LinkId(net.links.len() as u32));
             net.add_link(
                 Interaction::Lnl {
                     lk: stick.clone(),
@@ -318,4 +320,18 @@ fn sticking_springs_and_small_curves_match_the_reference() {
     let got = render(&net, steps, 333);
     assert_eq!(first_bit_difference(&got, &expected), None);
     assert!(got.iter().any(|v| *v != 0.0));
+    // the springs do catch and let go: count the steps where one starts or stops pulling
+    let mut e = Engine::new(&net);
+    let mut out = vec![0.0; steps * e.channels()];
+    let mut pulling = vec![false; springs.len()];
+    let mut changes = 0;
+    e.process_observed(steps, &mut out, &mut |v| {
+        for (p, &l) in pulling.iter_mut().zip(&springs) {
+            let now = v.link_force(l) != 0.0;
+            changes += usize::from(now != *p);
+            *p = now;
+        }
+    })
+    .unwrap();
+    assert!(changes >= 2, "the sticking springs never caught and let go");
 }
