@@ -415,6 +415,555 @@ impl Generic {
     }
 }
 
+/// Hand-specialised kernels for the benchmark membrane (`membrane`: M = 1, uniform REF K, Z, one
+/// ground per missing neighbour, all at 0): a padded `(R+2) x (C+2)` grid whose border is the
+/// grounds, neighbours implicit, no index anywhere. Two arithmetics:
+/// - `exact`: the reference stepper's (FORMALISM.md): each link's force `K (x1 - x2) + Z ((x1 -
+///   x1') - (x2 - x2'))` computed once (a row's horizontal links, and the vertical links below
+///   it, into row buffers), each mass summing its four terms in the membrane's declaration order
+///   (left `+`, right `-`, up `+`, down `-`, from `+0.0`), then `2x - x' + F / M`. The same bits
+///   as cordis (the `ceiling` mode checks it): the fastest a kernel bound to the reference's
+///   arithmetic can be on this model, written by hand for it.
+/// - `factored`: the C stencil baseline's (`cstencil.c`): `K (Σx - 4x) + Z (Σv - 4v)` per mass, no
+///   link force at all: about half the floating-point operations, not the reference's bits.
+struct Stencil {
+    rows: usize,
+    cols: usize,
+    x: Vec<f64>,
+    xp: Vec<f64>,
+    xn: Vec<f64>,
+    x0: Vec<f64>,
+    x1: Vec<f64>,
+    h: Vec<f64>,
+    up: Vec<f64>,
+    down: Vec<f64>,
+    out: usize,
+}
+
+impl Stencil {
+    fn new(rows: usize, cols: usize) -> Stencil {
+        let w = cols + 2;
+        let n = (rows + 2) * w;
+        let model = membrane(rows, cols);
+        let mut x0 = vec![0.0; n];
+        let mut x1 = vec![0.0; n];
+        for r in 0..rows {
+            for c in 0..cols {
+                // the masses are the first materials, row by row
+                let (a, b) = model.net.materials[r * cols + c].initial_state();
+                (x0[(r + 1) * w + c + 1], x1[(r + 1) * w + c + 1]) = (a, b);
+            }
+        }
+        Stencil {
+            rows,
+            cols,
+            x: vec![0.0; n],
+            xp: vec![0.0; n],
+            xn: vec![0.0; n],
+            x0,
+            x1,
+            h: vec![0.0; cols + 1],
+            up: vec![0.0; cols],
+            down: vec![0.0; cols],
+            out: (rows / 2 + 1) * w + cols / 2 + 1,
+        }
+    }
+
+    fn reset(&mut self) {
+        self.x.copy_from_slice(&self.x0);
+        self.xp.copy_from_slice(&self.x1);
+        self.xn.fill(0.0);
+    }
+
+    /// The reference's force of a link from `(xa, pa)` (end 1) to `(xb, pb)` (end 2).
+    #[inline(always)]
+    fn link(xa: f64, pa: f64, xb: f64, pb: f64) -> f64 {
+        K * (xa - xb) + Z * ((xa - pa) - (xb - pb))
+    }
+
+    /// The vertical links from row `r` (padded) down to row `r + 1`, columns `1..=cols`.
+    #[inline(always)]
+    fn vertical(x: &[f64], xp: &[f64], w: usize, r: usize, out: &mut [f64]) {
+        let (a, b) = (r * w + 1, (r + 1) * w + 1);
+        let n = out.len();
+        let (xa, pa, xb, pb) = (&x[a..a + n], &xp[a..a + n], &x[b..b + n], &xp[b..b + n]);
+        for ((o, (&xa, &pa)), (&xb, &pb)) in
+            out.iter_mut().zip(xa.iter().zip(pa)).zip(xb.iter().zip(pb))
+        {
+            *o = Stencil::link(xa, pa, xb, pb);
+        }
+    }
+
+    #[inline(always)]
+    fn step_exact(&mut self) {
+        let (w, cols) = (self.cols + 2, self.cols);
+        let (x, xp) = (&self.x, &self.xp);
+        Stencil::vertical(x, xp, w, 0, &mut self.up); // the top grounds' links
+        for r in 1..=self.rows {
+            let row = r * w;
+            let (xr, pr) = (&x[row..row + w], &xp[row..row + w]);
+            let ends = (xr[..=cols].iter().zip(&pr[..=cols])).zip(xr[1..].iter().zip(&pr[1..]));
+            for (h, ((&xa, &pa), (&xb, &pb))) in self.h.iter_mut().zip(ends) {
+                *h = Stencil::link(xa, pa, xb, pb);
+            }
+            Stencil::vertical(x, xp, w, r, &mut self.down);
+            let next = &mut self.xn[row + 1..row + 1 + cols];
+            let own = xr[1..=cols].iter().zip(&pr[1..=cols]);
+            let horizontal = self.h[..cols].iter().zip(&self.h[1..]);
+            let vertical = self.up.iter().zip(&self.down);
+            for (((nx, (&xc, &pc)), (&hl, &hr)), (&vu, &vd)) in
+                next.iter_mut().zip(own).zip(horizontal).zip(vertical)
+            {
+                let f = 0.0 + hl - hr + vu - vd;
+                *nx = 2.0 * xc - pc + f * M;
+            }
+            std::mem::swap(&mut self.up, &mut self.down);
+        }
+    }
+
+    #[inline(always)]
+    fn step_factored(&mut self) {
+        let (w, cols) = (self.cols + 2, self.cols);
+        let (x, xp) = (&self.x, &self.xp);
+        for r in 1..=self.rows {
+            fn at(buf: &[f64], w: usize, cols: usize, row: usize, dc: usize) -> &[f64] {
+                &buf[row * w + dc..row * w + dc + cols]
+            }
+            let at = |buf, row, dc| at(buf, w, cols, row, dc);
+            let next = &mut self.xn[r * w + 1..r * w + 1 + cols];
+            let (xc, pc) = (at(x, r, 1), at(xp, r, 1));
+            let (xl, pl, xr, pr) = (at(x, r, 0), at(xp, r, 0), at(x, r, 2), at(xp, r, 2));
+            let (xu, pu, xd, pd) = (
+                at(x, r - 1, 1),
+                at(xp, r - 1, 1),
+                at(x, r + 1, 1),
+                at(xp, r + 1, 1),
+            );
+            for i in 0..cols {
+                let (x0, v0) = (xc[i], xc[i] - pc[i]);
+                let sx = xl[i] + xr[i] + xu[i] + xd[i];
+                let sv = (xl[i] - pl[i]) + (xr[i] - pr[i]) + (xu[i] - pu[i]) + (xd[i] - pd[i]);
+                let f = K * (sx - 4.0 * x0) + Z * (sv - 4.0 * v0);
+                next[i] = 2.0 * x0 - pc[i] + f * M;
+            }
+        }
+    }
+
+    /// [`Stencil::steps`] compiled for the widest vectors this CPU has, as cordis's loops are.
+    fn run(&mut self, steps: u64, exact: bool) -> f64 {
+        #[cfg(target_arch = "x86_64")]
+        {
+            #[target_feature(enable = "avx512f")]
+            fn avx512(st: &mut Stencil, steps: u64, exact: bool) -> f64 {
+                st.steps(steps, exact)
+            }
+            #[target_feature(enable = "avx2")]
+            fn avx2(st: &mut Stencil, steps: u64, exact: bool) -> f64 {
+                st.steps(steps, exact)
+            }
+            if std::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU has the feature.
+                return unsafe { avx512(self, steps, exact) };
+            }
+            if std::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has the feature.
+                return unsafe { avx2(self, steps, exact) };
+            }
+        }
+        self.steps(steps, exact)
+    }
+
+    /// Runs `steps` steps of one arithmetic; returns the sum of the output samples.
+    #[inline(always)]
+    fn steps(&mut self, steps: u64, exact: bool) -> f64 {
+        self.reset();
+        let mut acc = 0.0;
+        for _ in 0..steps {
+            if exact {
+                self.step_exact();
+            } else {
+                self.step_factored();
+            }
+            acc += self.x[self.out];
+            // x(n-1) <- x(n) <- x(n+1); the grounds (border) stay 0 in all three
+            std::mem::swap(&mut self.xp, &mut self.x);
+            std::mem::swap(&mut self.x, &mut self.xn);
+        }
+        acc
+    }
+}
+
+/// The reads a generic kernel cannot avoid on `net`: for each link, the two positions of each
+/// end (`x(n)`, `x(n-1)`, as any force law with a damping term needs), in declaration order,
+/// summed so that nothing is optimised away; no force, no store. `paired` keeps a material's two
+/// positions side by side (one cache line for both), the layout that needs the fewest lines.
+struct Reads {
+    x: Vec<f64>,
+    xp: Vec<f64>,
+    pairs: Vec<[f64; 2]>,
+    la: Vec<u32>,
+    lb: Vec<u32>,
+}
+
+impl Reads {
+    fn new(net: &Network) -> Reads {
+        let n = net.materials.len();
+        Reads {
+            x: (0..n).map(|i| i as f64).collect(),
+            xp: (0..n).map(|i| -(i as f64)).collect(),
+            pairs: (0..n).map(|i| [i as f64, -(i as f64)]).collect(),
+            la: net.links.iter().map(|l| l.a.index() as u32).collect(),
+            lb: net.links.iter().map(|l| l.b.index() as u32).collect(),
+        }
+    }
+
+    /// Returns the bits of every read, XOR-ed (a one-cycle dependency per link, so that the loop
+    /// is bound by the reads, not by the latency of a floating-point sum).
+    fn run(&self, steps: u64, paired: bool) -> u64 {
+        #[cfg(target_arch = "x86_64")]
+        {
+            #[target_feature(enable = "avx512f")]
+            fn avx512(r: &Reads, steps: u64, paired: bool) -> u64 {
+                r.steps(steps, paired)
+            }
+            if std::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU has the feature.
+                return unsafe { avx512(self, steps, paired) };
+            }
+        }
+        self.steps(steps, paired)
+    }
+
+    /// [`Reads::run`] with AVX-512 gathers, 8 links at a time, over the links `part.0 / part.1`
+    /// of the list (`(0, 1)`: all; `None` without AVX-512).
+    fn gathered(&self, steps: u64, part: (usize, usize)) -> Option<u64> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::*;
+            #[target_feature(enable = "avx512f")]
+            fn run(r: &Reads, steps: u64, (p, parts): (usize, usize)) -> u64 {
+                let len = r.la.len() / 8;
+                let (lo, hi) = (len * p / parts * 8, len * (p + 1) / parts * 8);
+                let mut acc = 0;
+                for _ in 0..steps {
+                    let mut s = _mm512_setzero_si512();
+                    for i in (lo..hi).step_by(8) {
+                        // SAFETY: `i + 8 <= hi <= len` of `la` and `lb`, and every end is a
+                        // material index, `< len` of `x` and `xp`.
+                        unsafe {
+                            let a = _mm256_loadu_si256(r.la.as_ptr().add(i).cast());
+                            let b = _mm256_loadu_si256(r.lb.as_ptr().add(i).cast());
+                            let xa = _mm512_i32gather_pd::<8>(a, r.x.as_ptr());
+                            let pa = _mm512_i32gather_pd::<8>(a, r.xp.as_ptr());
+                            let xb = _mm512_i32gather_pd::<8>(b, r.x.as_ptr());
+                            let pb = _mm512_i32gather_pd::<8>(b, r.xp.as_ptr());
+                            let v = _mm512_xor_si512(
+                                _mm512_xor_si512(_mm512_castpd_si512(xa), _mm512_castpd_si512(pa)),
+                                _mm512_xor_si512(_mm512_castpd_si512(xb), _mm512_castpd_si512(pb)),
+                            );
+                            s = _mm512_xor_si512(s, v);
+                        }
+                    }
+                    acc ^= black_box(_mm512_reduce_or_epi64(s) as u64);
+                }
+                acc
+            }
+            if std::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU has the feature.
+                return Some(unsafe { run(self, steps, part) });
+            }
+        }
+        let _ = (steps, part);
+        None
+    }
+
+    /// Seconds for `steps` passes of [`Reads::gathered`] on `threads` threads, each over its own
+    /// share of the links, with no synchronisation at all between them (`None` without AVX-512).
+    fn gathered_on(&self, steps: u64, threads: usize) -> Option<f64> {
+        let t = Instant::now();
+        let done = std::thread::scope(|scope| {
+            let handles: Vec<_> = (0..threads)
+                .map(|p| scope.spawn(move || black_box(self.gathered(steps, (p, threads)))))
+                .collect();
+            handles.into_iter().all(|h| h.join().unwrap().is_some())
+        });
+        done.then(|| t.elapsed().as_secs_f64())
+    }
+
+    #[inline(always)]
+    fn steps(&self, steps: u64, paired: bool) -> u64 {
+        let mut acc = 0;
+        for _ in 0..steps {
+            let mut s = 0u64;
+            for (&a, &b) in self.la.iter().zip(&self.lb) {
+                let (a, b) = (a as usize, b as usize);
+                s ^= if paired {
+                    let (pa, pb) = (self.pairs[a], self.pairs[b]);
+                    (pa[0].to_bits() ^ pa[1].to_bits()) ^ (pb[0].to_bits() ^ pb[1].to_bits())
+                } else {
+                    (self.x[a].to_bits() ^ self.xp[a].to_bits())
+                        ^ (self.x[b].to_bits() ^ self.xp[b].to_bits())
+                };
+            }
+            acc ^= black_box(s);
+        }
+        acc
+    }
+}
+
+/// The least a parallel step must do on a network: the threads read both ends of their share of
+/// the links (gathered, as [`Reads::gathered`]), meet at a barrier, write the positions of their
+/// share of the masses (the next step's reads on the other threads must fetch them), and meet
+/// again: no force, no sum, no force buffer shared. Seconds for `steps` steps (`None` without
+/// AVX-512).
+fn exchange_on(reads: &Reads, masses: usize, steps: u64, threads: usize) -> Option<f64> {
+    use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        if !std::is_x86_feature_detected!("avx512f") {
+            return None;
+        }
+        let x: Vec<AtomicU64> = reads
+            .x
+            .iter()
+            .map(|v| AtomicU64::new(v.to_bits()))
+            .collect();
+        let xp: Vec<AtomicU64> = reads
+            .xp
+            .iter()
+            .map(|v| AtomicU64::new(v.to_bits()))
+            .collect();
+        let arrived = AtomicUsize::new(0);
+        // spin barrier: the `g`-th meeting is complete when `threads * g` threads have arrived
+        let meet = |g: usize| {
+            arrived.fetch_add(1, Ordering::AcqRel);
+            while arrived.load(Ordering::Acquire) < threads * g {
+                std::hint::spin_loop();
+            }
+        };
+        #[target_feature(enable = "avx512f")]
+        fn read(la: &[u32], lb: &[u32], x: *const f64, xp: *const f64) -> u64 {
+            let mut s = _mm512_setzero_si512();
+            for i in (0..la.len() / 8 * 8).step_by(8) {
+                // SAFETY: `i + 8 <= len`; the ends are material indices, within `x` and `xp`,
+                // which nobody writes in this phase (the barriers separate the phases).
+                unsafe {
+                    let a = _mm256_loadu_si256(la.as_ptr().add(i).cast());
+                    let b = _mm256_loadu_si256(lb.as_ptr().add(i).cast());
+                    let v = _mm512_xor_si512(
+                        _mm512_xor_si512(
+                            _mm512_castpd_si512(_mm512_i32gather_pd::<8>(a, x)),
+                            _mm512_castpd_si512(_mm512_i32gather_pd::<8>(a, xp)),
+                        ),
+                        _mm512_xor_si512(
+                            _mm512_castpd_si512(_mm512_i32gather_pd::<8>(b, x)),
+                            _mm512_castpd_si512(_mm512_i32gather_pd::<8>(b, xp)),
+                        ),
+                    );
+                    s = _mm512_xor_si512(s, v);
+                }
+            }
+            _mm512_reduce_or_epi64(s) as u64
+        }
+        let t = Instant::now();
+        std::thread::scope(|scope| {
+            for p in 0..threads {
+                let (x, xp, meet) = (&x, &xp, &meet);
+                let nl = reads.la.len();
+                let links = nl * p / threads..nl * (p + 1) / threads;
+                let mats = masses * p / threads..masses * (p + 1) / threads;
+                scope.spawn(move || {
+                    let (la, lb) = (&reads.la[links.clone()], &reads.lb[links]);
+                    let mut acc = 0u64;
+                    for step in 0..steps as usize {
+                        // SAFETY: the CPU has AVX-512F (checked above).
+                        acc ^= unsafe { read(la, lb, x.as_ptr().cast(), xp.as_ptr().cast()) };
+                        meet(2 * step + 1);
+                        for i in mats.clone() {
+                            let v = x[i].load(Ordering::Relaxed);
+                            xp[i].store(v, Ordering::Relaxed);
+                            x[i].store(v ^ (acc & 1), Ordering::Relaxed);
+                        }
+                        meet(2 * step + 2);
+                    }
+                    black_box(acc);
+                });
+            }
+        });
+        Some(t.elapsed().as_secs_f64())
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (reads, masses, steps, threads);
+        None
+    }
+}
+
+/// `ceiling threads [N [T]]`: on a random network of N masses, the gathered reads of [`Reads`] on
+/// 1 and on T threads (no synchronisation: an upper bound on what threads can gain), next to
+/// cordis on 1 and T threads.
+fn floor_threads_mode(n: usize, threads: usize) {
+    let work = work();
+    let model = random(n);
+    let steps = (work / model.masses as u64).max(MIN_STEPS);
+    let mass_steps = (model.masses as u64 * steps) as f64;
+    let reads = Reads::new(&model.net);
+    let mut one = Engine::new(&model.net);
+    let mut many = Engine::new(&model.net);
+    many.set_threads(threads);
+    let mut buf = vec![0.0; BLOCK * one.channels()];
+    let (mut r1, mut rn, mut c1, mut cn) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut e1, mut en) = (Vec::new(), Vec::new());
+    let m = model.masses;
+    for _ in 0..RUNS {
+        let (Some(a), Some(b)) = (
+            reads.gathered_on(steps, 1),
+            reads.gathered_on(steps, threads),
+        ) else {
+            println!("no AVX-512 on this CPU: no gathered reads to time");
+            return;
+        };
+        r1.push(a);
+        rn.push(b);
+        let (Some(a), Some(b)) = (
+            exchange_on(&reads, m, steps, 1),
+            exchange_on(&reads, m, steps, threads),
+        ) else {
+            return;
+        };
+        e1.push(a);
+        en.push(b);
+        let t = Instant::now();
+        black_box(run_cordis(&mut one, black_box(steps), &mut buf));
+        c1.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        black_box(run_cordis(&mut many, black_box(steps), &mut buf));
+        cn.push(t.elapsed().as_secs_f64());
+    }
+    let (r1, rn, c1, cn) = (median(r1), median(rn), median(c1), median(cn));
+    let (e1, en) = (median(e1), median(en));
+    println!(
+        "{}: {work:.3e} mass-steps per run, median of {RUNS}; load average {}\n\
+         reads only (gathered): 1 thread {:.3e}, {threads} threads {:.3e}: x{:.2}\n\
+         reads + writes:        1 thread {:.3e}, {threads} threads {:.3e}: x{:.2}\n\
+         cordis:                1 thread {:.3e}, {threads} threads {:.3e}: x{:.2}",
+        model.name,
+        load_average(),
+        mass_steps / r1,
+        mass_steps / rn,
+        r1 / rn,
+        mass_steps / e1,
+        mass_steps / en,
+        e1 / en,
+        mass_steps / c1,
+        mass_steps / cn,
+        c1 / cn,
+        work = work as f64
+    );
+}
+
+/// `ceiling [MODEL...]`: for each membrane, cordis against the two hand-specialised kernels of
+/// [`Stencil`]; for each random network, cordis and the generic baseline against [`Reads`].
+fn ceiling_mode(specs: &[Spec]) {
+    let work = work();
+    println!(
+        "cordis engine against hand-specialised kernels; {work:.3e} mass-steps per run, median of \
+         {RUNS} runs (alternating), mass-steps/s; load average {}",
+        load_average(),
+        work = work as f64
+    );
+    for spec in specs {
+        let model = build(spec);
+        let steps = (work / model.masses as u64).max(MIN_STEPS);
+        let mass_steps = (model.masses as u64 * steps) as f64;
+        let mut engine = Engine::new(&model.net);
+        let mut buf = vec![0.0; BLOCK * engine.channels()];
+        let mut tc = Vec::new();
+        let mut sc = 0.0;
+        match *spec {
+            Spec::Membrane(rows, cols) => {
+                let mut st = Stencil::new(rows, cols);
+                let (mut te, mut tf) = (Vec::new(), Vec::new());
+                let (mut se, mut sf) = (0.0, 0.0);
+                for _ in 0..RUNS {
+                    let t = Instant::now();
+                    sc = black_box(run_cordis(&mut engine, black_box(steps), &mut buf));
+                    tc.push(t.elapsed().as_secs_f64());
+                    let t = Instant::now();
+                    se = black_box(st.run(black_box(steps), true));
+                    te.push(t.elapsed().as_secs_f64());
+                    let t = Instant::now();
+                    sf = black_box(st.run(black_box(steps), false));
+                    tf.push(t.elapsed().as_secs_f64());
+                }
+                let (tc, te, tf) = (median(tc), median(te), median(tf));
+                println!(
+                    "{}: cordis {:.3e}; exact stencil {:.3e} (cordis / exact {:.2}, output {}); \
+                     factored stencil {:.3e} (cordis / factored {:.2}, output rel diff {:.1e})",
+                    model.name,
+                    mass_steps / tc,
+                    mass_steps / te,
+                    te / tc,
+                    if se.to_bits() == sc.to_bits() {
+                        "identical"
+                    } else {
+                        "DIFFERENT"
+                    },
+                    mass_steps / tf,
+                    tf / tc,
+                    ((sf - sc) / sc.abs().max(f64::MIN_POSITIVE)).abs()
+                );
+            }
+            _ => {
+                let mut generic = Generic::new(&model.net, model.out);
+                let reads = Reads::new(&model.net);
+                let (mut tg, mut tr, mut tp, mut tv) =
+                    (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+                for _ in 0..RUNS {
+                    let t = Instant::now();
+                    sc = black_box(run_cordis(&mut engine, black_box(steps), &mut buf));
+                    tc.push(t.elapsed().as_secs_f64());
+                    let t = Instant::now();
+                    black_box(generic.run(black_box(steps)));
+                    tg.push(t.elapsed().as_secs_f64());
+                    let t = Instant::now();
+                    black_box(reads.run(black_box(steps), false));
+                    tr.push(t.elapsed().as_secs_f64());
+                    let t = Instant::now();
+                    black_box(reads.run(black_box(steps), true));
+                    tp.push(t.elapsed().as_secs_f64());
+                    let t = Instant::now();
+                    if black_box(reads.gathered(black_box(steps), (0, 1))).is_some() {
+                        tv.push(t.elapsed().as_secs_f64());
+                    }
+                }
+                let (tc, tg, tr, tp) = (median(tc), median(tg), median(tr), median(tp));
+                black_box(sc);
+                let gathers = if tv.is_empty() {
+                    "no AVX-512".to_string()
+                } else {
+                    let tv = median(tv);
+                    format!("{:.3e} (/ generic {:.2})", mass_steps / tv, tg / tv)
+                };
+                println!(
+                    "{}: cordis {:.3e}; generic {:.3e} (cordis / generic {:.2}); reads only: \
+                     scalar {:.3e} (/ generic {:.2}), paired {:.3e} (/ generic {:.2}), \
+                     gathered {gathers}",
+                    model.name,
+                    mass_steps / tc,
+                    mass_steps / tg,
+                    tg / tc,
+                    mass_steps / tr,
+                    tg / tr,
+                    mass_steps / tp,
+                    tg / tp
+                );
+            }
+        }
+    }
+}
+
 /// Runs `steps` steps of `engine` from its initial state, in blocks of [`BLOCK`] frames into `buf`;
 /// returns the sum of the output samples.
 fn run_cordis(engine: &mut Engine, steps: u64, buf: &mut [f64]) -> f64 {
@@ -631,6 +1180,17 @@ fn main() {
             })
             .unwrap_or(2);
         return threads_mode(num(1, 100_000), threads, args.get(3..).unwrap_or(&[]));
+    }
+    if args.first().map(String::as_str) == Some("ceiling") {
+        if args.get(1).map(String::as_str) == Some("threads") {
+            let num = |i: usize, default: usize, min: usize| {
+                (args.get(i)).map_or(default, |s| {
+                    (s.parse::<usize>().ok().filter(|&n| n >= min)).unwrap_or_else(|| usage())
+                })
+            };
+            return floor_threads_mode(num(2, 100_000, 9), num(3, 2, 1));
+        }
+        return ceiling_mode(&parse_args(&args[1..]));
     }
     if args.first().map(String::as_str) == Some("netlist") {
         let Some(dir) = args.get(1) else { usage() };

@@ -2134,13 +2134,18 @@ fn link_order(net: &Network, slot: &[u32], n_mc: usize) -> Vec<u32> {
     for d in 0..nl {
         *per_offset.entry((group(d), offset(d))).or_default() += 1;
     }
+    let bands: Vec<(usize, i64)> = (0..nl).map(|d| (group(d), offset(d))).collect();
+    let in_band: Vec<bool> = bands.iter().map(|b| per_offset[b] >= STEP_MIN).collect();
+    let banded = |d: usize| in_band[d];
+    let placed = placed_in_bands(net, slot, n_mc, &banded, &|d| bands[d]);
     let mut order: Vec<usize> = (0..nl).collect();
     order.sort_by_key(|&d| {
-        let g = group(d);
-        let o = offset(d);
+        let (g, o) = bands[d];
         let (a, b) = (end(net.links[d].a), end(net.links[d].b));
-        if per_offset[&(g, o)] >= STEP_MIN {
+        if banded(d) {
             (g, 0u8, o, a, d)
+        } else if let Some((o, key)) = placed[d] {
+            (g, 0, o, key, d)
         } else {
             // by the material that sums the link's force (its mobile end, or the smaller)
             let mobile = |s: i64| s >= 0 && (s as usize) < n_mc;
@@ -2156,6 +2161,89 @@ fn link_order(net: &Network, slot: &[u32], n_mc: usize) -> Vec<u32> {
         lslot[d] = l as u32;
     }
     lslot
+}
+
+/// Places links that are in no band (see [`link_order`]) inside a band, where a material's sum
+/// would have them continue a progression: when link `d` is term `j` of mobile material `m` (its
+/// edge list, declaration order), and the nearest material `m'` before `m` (or else after it) of
+/// the same degree, within [`TILE`] slots, has as its term `j` a banded link `d'` of the same group,
+/// then `d` takes the band of `d'` and the sort key `key(d') + (m - m')`: the slot that term `j`
+/// of `m` would have if the progression of `m'` went on. The grounds of a membrane's border
+/// (term "left" of a row's first mass, "up" of the top row's masses...) land just before or after
+/// the links of their row or column, so every mass of a row sums unit-step progressions, as in a
+/// padded stencil. Returns `(band offset, key)` per link (declaration index), `None` when unplaced.
+fn placed_in_bands(
+    net: &Network,
+    slot: &[u32],
+    n_mc: usize,
+    banded: &dyn Fn(usize) -> bool,
+    band: &dyn Fn(usize) -> (usize, i64),
+) -> Vec<Option<(i64, i64)>> {
+    let nl = net.links.len();
+    let mut placed = vec![None; nl];
+    if (0..nl).all(banded) || !(0..nl).any(banded) {
+        return placed;
+    }
+    // the edge lists of the mobile materials (links only), by storage slot
+    let mobile = |id: MatId| {
+        slot.get(id.index())
+            .map(|&s| s as usize)
+            .filter(|&s| s < n_mc)
+    };
+    let mut off = vec![0usize; n_mc + 1];
+    for link in &net.links {
+        for s in [mobile(link.a), mobile(link.b)].into_iter().flatten() {
+            off[s + 1] += 1;
+        }
+    }
+    for s in 0..n_mc {
+        off[s + 1] += off[s];
+    }
+    let mut edges = vec![0usize; off[n_mc]];
+    let mut cursor = off[..n_mc].to_vec();
+    for (d, link) in net.links.iter().enumerate() {
+        for s in [mobile(link.a), mobile(link.b)].into_iter().flatten() {
+            edges[cursor[s]] = d;
+            cursor[s] += 1;
+        }
+    }
+    let terms = |s: usize| &edges[off[s]..off[s + 1]];
+    let key = |d: usize| {
+        slot.get(net.links[d].a.index())
+            .map_or(-1, |&s| i64::from(s))
+    };
+    // Two sweeps over the materials (forward: the nearest `m'` before; backward: after), each
+    // remembering, per term index, the last material of the current degree whose term is banded.
+    let mut last: Vec<Option<(usize, usize)>> = Vec::new();
+    for forward in [true, false] {
+        last.clear();
+        let mut degree = usize::MAX;
+        let order: Box<dyn Iterator<Item = usize>> = if forward {
+            Box::new(0..n_mc)
+        } else {
+            Box::new((0..n_mc).rev())
+        };
+        for m in order {
+            let t = terms(m);
+            if t.len() != degree {
+                degree = t.len();
+                last.clear();
+                last.resize(degree, None);
+            }
+            for (j, &d) in t.iter().enumerate() {
+                if banded(d) {
+                    last[j] = Some((m, d));
+                    continue;
+                }
+                let Some((m2, d2)) = last[j] else { continue };
+                let ((g, _), (g2, o2)) = (band(d), band(d2));
+                if placed[d].is_none() && g == g2 && m.abs_diff(m2) <= TILE {
+                    placed[d] = Some((o2, key(d2) + m as i64 - m2 as i64));
+                }
+            }
+        }
+    }
+    placed
 }
 
 /// True when `m` is a (normal) power of two, so that `f / m == f * (1 / m)` for every `f`: both are
@@ -2398,7 +2486,7 @@ mod tests {
                 3 => Interaction::But {
                     k: 0.1,
                     z: 1e-4,
-                    s: if i % 2 == 0 { 1e-3 } else { -1e-3 },
+                    s: if i.is_multiple_of(2) { 1e-3 } else { -1e-3 },
                 },
                 4 => Interaction::Lnl {
                     lk: Curve::new(&[(-0.01, -1e-3), (0.0, 0.0), (0.01, 2e-3)]).unwrap(),
@@ -2459,6 +2547,75 @@ mod tests {
                 .all(|(a, b)| a.to_bits() == b.to_bits());
             assert!(same, "{w:?} differs from the scalar build");
         }
+    }
+
+    /// A membrane with one ground per missing neighbour (as the benchmark's) and a string between
+    /// two grounds: the ground links are placed where the border masses' sums continue their
+    /// progressions, so every mass of a membrane row, and every mass of the string, sums unit-step
+    /// streams (no mass read through an index list).
+    #[test]
+    fn ground_links_join_the_progressions_of_their_row() {
+        let (rows, cols) = (6, 40);
+        let mut net = Network::new();
+        let law = Interaction::Ref { k: 0.1, z: 1e-4 };
+        let ids: Vec<MatId> = (0..rows * cols)
+            .map(|i| {
+                let v0 = if i == 45 { 0.05 } else { 0.0 };
+                net.add_material(Material::Mas {
+                    m: 1.0,
+                    x0: 0.0,
+                    v0,
+                })
+            })
+            .collect();
+        let at = |r: usize, c: usize| ids[r * cols + c];
+        for r in 0..rows {
+            let g = net.add_material(Material::Sol { x0: 0.0 });
+            net.add_link(law.clone(), g, at(r, 0));
+            for c in 0..cols - 1 {
+                net.add_link(law.clone(), at(r, c), at(r, c + 1));
+            }
+            let g = net.add_material(Material::Sol { x0: 0.0 });
+            net.add_link(law.clone(), at(r, cols - 1), g);
+        }
+        for c in 0..cols {
+            let g = net.add_material(Material::Sol { x0: 0.0 });
+            net.add_link(law.clone(), g, at(0, c));
+            for r in 0..rows - 1 {
+                net.add_link(law.clone(), at(r, c), at(r + 1, c));
+            }
+            let g = net.add_material(Material::Sol { x0: 0.0 });
+            net.add_link(law.clone(), at(rows - 1, c), g);
+        }
+        net.add_position_output(at(2, 7));
+        let k = Kernel::new(&net);
+        assert_eq!(k.mas_segments.len(), rows, "{:?}", k.mas_segments);
+        for seg in &k.mas_segments {
+            assert_eq!((seg.degree, seg.mats.len()), (4, cols));
+            let streams = &k.streams[seg.streams.clone().expect("streams")];
+            assert!(streams.iter().all(|&(_, step)| step == 1), "{streams:?}");
+        }
+
+        let mut string = Network::new();
+        let g0 = string.add_material(Material::Sol { x0: 0.0 });
+        let masses: Vec<MatId> = (0..100)
+            .map(|i| {
+                string.add_material(Material::Mas {
+                    m: 1.0,
+                    x0: 0.0,
+                    v0: if i == 3 { 0.1 } else { 0.0 },
+                })
+            })
+            .collect();
+        let g1 = string.add_material(Material::Sol { x0: 0.0 });
+        let chain: Vec<MatId> = std::iter::once(g0).chain(masses).chain([g1]).collect();
+        for w in chain.windows(2) {
+            string.add_link(law.clone(), w[0], w[1]);
+        }
+        string.add_position_output(chain[50]);
+        let k = Kernel::new(&string);
+        assert_eq!(k.mas_segments.len(), 1, "{:?}", k.mas_segments);
+        assert!(k.mas_segments[0].streams.is_some());
     }
 
     #[test]

@@ -40,7 +40,7 @@ fn spin_until(spin: Duration, done: impl Fn() -> bool, give_up: impl Fn() -> boo
             return false;
         }
         i = i.wrapping_add(1);
-        if i % 64 == 0 && start.get_or_insert_with(Instant::now).elapsed() >= spin {
+        if i.is_multiple_of(64) && start.get_or_insert_with(Instant::now).elapsed() >= spin {
             return false;
         }
         std::hint::spin_loop();
@@ -373,7 +373,7 @@ fn worker(shared: &Shared, t: usize) {
                 break;
             }
             i = i.wrapping_add(1);
-            if i % 64 != 0 || start.elapsed() < IDLE_SPIN {
+            if !i.is_multiple_of(64) || start.elapsed() < IDLE_SPIN {
                 std::hint::spin_loop();
             } else {
                 thread::park();

@@ -79,7 +79,7 @@ fn law(i: usize) -> Interaction {
         6 | 7 => Interaction::But {
             k,
             z,
-            s: if i % 3 == 0 { 1e-3 } else { -1e-3 },
+            s: if i.is_multiple_of(3) { 1e-3 } else { -1e-3 },
         },
         _ => Interaction::Lnl {
             lk: Curve::new(&[(-0.01, -k * 0.01), (0.0, 0.0), (0.01, 2.0 * k * 0.01)]).unwrap(),

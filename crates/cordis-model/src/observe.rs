@@ -211,7 +211,7 @@ impl<'m> EnergyMeter<'m> {
         for (i, p) in self.prev.iter_mut().enumerate() {
             *p = view.position(cordis_core::MatId(i as u32));
         }
-        if view.step() % self.every == 0 {
+        if view.step().is_multiple_of(self.every) {
             self.rows.push(EnergyRow {
                 step: view.step(),
                 kinetic,

@@ -263,7 +263,7 @@ pub fn random_network(seed: u64, n: usize, links_per_mass: usize) -> Network {
             },
         };
         let l = net.add_link(law, a, b);
-        if l.0 % 13 == 0 {
+        if l.0.is_multiple_of(13) {
             net.add_force_output(l);
         }
     }
