@@ -106,9 +106,10 @@ impl Run {
 /// Shortest stretch of identical links that gets a uniform run of its own.
 const UNIFORM_MIN: usize = 8;
 /// Shortest arithmetic progression of link ends, or of edges, that gets a loop without indices
-/// (shorter ones cost more in loop set-up than they save: a small instrument ran 15 % faster, and
-/// a 1000x10 membrane twice as fast, with 32 than with 8).
-const STEP_MIN: usize = 32;
+/// (shorter ones cost more in loop set-up than they save: the small reconfigurable instrument ran
+/// 25 % slower with 8; with 16 rather than 32 the rows of a 30x30 or 20x20 membrane are
+/// vectorised, 1.4-1.55x faster, and larger models run the same).
+const STEP_MIN: usize = 16;
 
 /// Mobile materials `mats` (storage slots) all have `degree` edges. With `streams`, the edges are
 /// arithmetic progressions: edge `j` of material `mats.start + i` is `base + i step`, `(base,
