@@ -287,6 +287,35 @@ fn the_default_threshold_keeps_small_networks_on_one_thread() {
 }
 
 #[test]
+fn networks_without_locality_need_a_larger_size_for_threads() {
+    let size = |net: &Network| net.materials.len() + net.links.len();
+    // random links: most tie masses far apart in storage
+    let mid = random_network(3, 8_000, 4); // 3 modules per mass
+    assert!(size(&mid) >= Engine::DEFAULT_PARALLEL_THRESHOLD);
+    assert!(size(&mid) < Engine::DEFAULT_PARALLEL_THRESHOLD * Engine::SCATTERED_FACTOR);
+    let mut e = Engine::new(&mid);
+    e.set_threads(2);
+    assert!(
+        !e.is_parallel(),
+        "a random network of {} modules",
+        size(&mid)
+    );
+    e.set_parallel_threshold(0);
+    assert!(e.is_parallel());
+    let big = random_network(3, 34_000, 4);
+    assert!(size(&big) >= Engine::DEFAULT_PARALLEL_THRESHOLD * Engine::SCATTERED_FACTOR);
+    let mut e = Engine::new(&big);
+    e.set_threads(2);
+    assert!(e.is_parallel());
+    // a string of the same size as `mid`, every module type, is local: threads
+    let string = every_module_grid(1, size(&mid) / 2, Inertia::Mixed);
+    assert!(size(&string) >= Engine::DEFAULT_PARALLEL_THRESHOLD);
+    let mut e = Engine::new(&string);
+    e.set_threads(2);
+    assert!(e.is_parallel());
+}
+
+#[test]
 fn clones_resets_observers_and_changing_threads_keep_the_output() {
     let net = every_module_grid(40, 50, Inertia::Mixed);
     let steps = 900;
