@@ -835,12 +835,10 @@ fn floor_threads_mode(n: usize, threads: usize) {
         };
         e1.push(a);
         en.push(b);
-        let t = Instant::now();
-        black_box(run_cordis(&mut one, black_box(steps), &mut buf));
-        c1.push(t.elapsed().as_secs_f64());
-        let t = Instant::now();
-        black_box(run_cordis(&mut many, black_box(steps), &mut buf));
-        cn.push(t.elapsed().as_secs_f64());
+        timed(&mut c1, || run_cordis(&mut one, black_box(steps), &mut buf));
+        timed(&mut cn, || {
+            run_cordis(&mut many, black_box(steps), &mut buf)
+        });
     }
     let (r1, rn, c1, cn) = (median(r1), median(rn), median(c1), median(cn));
     let (e1, en) = (median(e1), median(en));
@@ -888,15 +886,11 @@ fn ceiling_mode(specs: &[Spec]) {
                 let (mut te, mut tf) = (Vec::new(), Vec::new());
                 let (mut se, mut sf) = (0.0, 0.0);
                 for _ in 0..RUNS {
-                    let t = Instant::now();
-                    sc = black_box(run_cordis(&mut engine, black_box(steps), &mut buf));
-                    tc.push(t.elapsed().as_secs_f64());
-                    let t = Instant::now();
-                    se = black_box(st.run(black_box(steps), true));
-                    te.push(t.elapsed().as_secs_f64());
-                    let t = Instant::now();
-                    sf = black_box(st.run(black_box(steps), false));
-                    tf.push(t.elapsed().as_secs_f64());
+                    sc = timed(&mut tc, || {
+                        run_cordis(&mut engine, black_box(steps), &mut buf)
+                    });
+                    se = timed(&mut te, || st.run(black_box(steps), true));
+                    sf = timed(&mut tf, || st.run(black_box(steps), false));
                 }
                 let (tc, te, tf) = (median(tc), median(te), median(tf));
                 println!(
@@ -922,18 +916,12 @@ fn ceiling_mode(specs: &[Spec]) {
                 let (mut tg, mut tr, mut tp, mut tv) =
                     (Vec::new(), Vec::new(), Vec::new(), Vec::new());
                 for _ in 0..RUNS {
-                    let t = Instant::now();
-                    sc = black_box(run_cordis(&mut engine, black_box(steps), &mut buf));
-                    tc.push(t.elapsed().as_secs_f64());
-                    let t = Instant::now();
-                    black_box(generic.run(black_box(steps)));
-                    tg.push(t.elapsed().as_secs_f64());
-                    let t = Instant::now();
-                    black_box(reads.run(black_box(steps), false));
-                    tr.push(t.elapsed().as_secs_f64());
-                    let t = Instant::now();
-                    black_box(reads.run(black_box(steps), true));
-                    tp.push(t.elapsed().as_secs_f64());
+                    sc = timed(&mut tc, || {
+                        run_cordis(&mut engine, black_box(steps), &mut buf)
+                    });
+                    timed(&mut tg, || generic.run(black_box(steps)));
+                    timed(&mut tr, || reads.run(black_box(steps), false));
+                    timed(&mut tp, || reads.run(black_box(steps), true));
                     let t = Instant::now();
                     if black_box(reads.gathered(black_box(steps), (0, 1))).is_some() {
                         tv.push(t.elapsed().as_secs_f64());
@@ -984,6 +972,14 @@ fn run_cordis(engine: &mut Engine, steps: u64, buf: &mut [f64]) -> f64 {
         left -= frames as u64;
     }
     acc
+}
+
+/// Runs `f`, pushing its duration in seconds onto `times`.
+fn timed<T>(times: &mut Vec<f64>, f: impl FnOnce() -> T) -> T {
+    let t = Instant::now();
+    let out = black_box(f());
+    times.push(t.elapsed().as_secs_f64());
+    out
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -1127,12 +1123,10 @@ fn threads_mode(n: usize, threads: usize, kinds: &[String]) {
         let (mut t1, mut tn) = (Vec::new(), Vec::new());
         let (mut s1, mut sn) = (0.0, 0.0);
         for _ in 0..RUNS {
-            let t = Instant::now();
-            s1 = black_box(run_cordis(&mut one, black_box(steps), &mut buf));
-            t1.push(t.elapsed().as_secs_f64());
-            let t = Instant::now();
-            sn = black_box(run_cordis(&mut many, black_box(steps), &mut buf));
-            tn.push(t.elapsed().as_secs_f64());
+            s1 = timed(&mut t1, || run_cordis(&mut one, black_box(steps), &mut buf));
+            sn = timed(&mut tn, || {
+                run_cordis(&mut many, black_box(steps), &mut buf)
+            });
         }
         let (t1, tn) = (median(t1), median(tn));
         let check = if s1.to_bits() == sn.to_bits() {
@@ -1221,12 +1215,10 @@ fn main() {
         let (mut tc, mut tg) = (Vec::new(), Vec::new());
         let (mut sc, mut sg) = (0.0, 0.0);
         for _ in 0..RUNS {
-            let t = Instant::now();
-            sc = black_box(run_cordis(&mut engine, black_box(steps), &mut buf));
-            tc.push(t.elapsed().as_secs_f64());
-            let t = Instant::now();
-            sg = black_box(generic.run(black_box(steps)));
-            tg.push(t.elapsed().as_secs_f64());
+            sc = timed(&mut tc, || {
+                run_cordis(&mut engine, black_box(steps), &mut buf)
+            });
+            sg = timed(&mut tg, || generic.run(black_box(steps)));
         }
         let (tc, tg) = (median(tc), median(tg));
         // Both sum the same SOX samples: bit-identical for REF, rounding-close for BUT and LNL.
