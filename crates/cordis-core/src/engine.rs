@@ -2163,13 +2163,12 @@ fn link_order(net: &Network, slot: &[u32], n_mc: usize) -> Vec<u32> {
     }
     let bands: Vec<(usize, i64)> = (0..nl).map(|d| (group(d), offset(d))).collect();
     let in_band: Vec<bool> = bands.iter().map(|b| per_offset[b] >= STEP_MIN).collect();
-    let banded = |d: usize| in_band[d];
-    let placed = placed_in_bands(net, slot, n_mc, &banded, &|d| bands[d]);
+    let placed = placed_in_bands(net, slot, n_mc, &bands, &in_band);
     let mut order: Vec<usize> = (0..nl).collect();
     order.sort_by_key(|&d| {
         let (g, o) = bands[d];
         let (a, b) = (end(net.links[d].a), end(net.links[d].b));
-        if banded(d) {
+        if in_band[d] {
             (g, 0u8, o, a, d)
         } else if let Some((o, key)) = placed[d] {
             (g, 0, o, key, d)
@@ -2198,17 +2197,18 @@ fn link_order(net: &Network, slot: &[u32], n_mc: usize) -> Vec<u32> {
 /// of `m` would have if the progression of `m'` went on. The grounds of a membrane's border
 /// (term "left" of a row's first mass, "up" of the top row's masses...) land just before or after
 /// the links of their row or column, so every mass of a row sums unit-step progressions, as in a
-/// padded stencil. Returns `(band offset, key)` per link (declaration index), `None` when unplaced.
+/// padded stencil. `bands[d]` is the (group, end offset) of link `d`, `in_band[d]` whether it is in
+/// a band. Returns `(band offset, key)` per link (declaration index), `None` when unplaced.
 fn placed_in_bands(
     net: &Network,
     slot: &[u32],
     n_mc: usize,
-    banded: &dyn Fn(usize) -> bool,
-    band: &dyn Fn(usize) -> (usize, i64),
+    bands: &[(usize, i64)],
+    in_band: &[bool],
 ) -> Vec<Option<(i64, i64)>> {
     let nl = net.links.len();
     let mut placed = vec![None; nl];
-    if (0..nl).all(banded) || !(0..nl).any(banded) {
+    if in_band.iter().all(|&b| b) || !in_band.iter().any(|&b| b) {
         return placed;
     }
     // the edge lists of the mobile materials (links only), by storage slot
@@ -2258,12 +2258,12 @@ fn placed_in_bands(
                 last.resize(degree, None);
             }
             for (j, &d) in t.iter().enumerate() {
-                if banded(d) {
+                if in_band[d] {
                     last[j] = Some((m, d));
                     continue;
                 }
                 let Some((m2, d2)) = last[j] else { continue };
-                let ((g, _), (g2, o2)) = (band(d), band(d2));
+                let ((g, _), (g2, o2)) = (bands[d], bands[d2]);
                 if placed[d].is_none() && g == g2 && m.abs_diff(m2) <= TILE {
                     placed[d] = Some((o2, key(d2) + m as i64 - m2 as i64));
                 }
