@@ -634,44 +634,23 @@ impl Reads {
         self.steps(steps, paired)
     }
 
-    /// [`Reads::run`] with AVX-512 gathers, 8 links at a time, over the links `part.0 / part.1`
-    /// of the list (`(0, 1)`: all; `None` without AVX-512).
+    /// [`Reads::run`] with AVX-512 gathers (see [`gathered_reads`]), over the links `part.0 /
+    /// part.1` of the list (`(0, 1)`: all; `None` without AVX-512).
     fn gathered(&self, steps: u64, part: (usize, usize)) -> Option<u64> {
         #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::*;
-            #[target_feature(enable = "avx512f")]
-            fn run(r: &Reads, steps: u64, (p, parts): (usize, usize)) -> u64 {
-                let len = r.la.len() / 8;
-                let (lo, hi) = (len * p / parts * 8, len * (p + 1) / parts * 8);
-                let mut acc = 0;
-                for _ in 0..steps {
-                    let mut s = _mm512_setzero_si512();
-                    for i in (lo..hi).step_by(8) {
-                        // SAFETY: `i + 8 <= hi <= len` of `la` and `lb`, and every end is a
-                        // material index, `< len` of `x` and `xp`.
-                        unsafe {
-                            let a = _mm256_loadu_si256(r.la.as_ptr().add(i).cast());
-                            let b = _mm256_loadu_si256(r.lb.as_ptr().add(i).cast());
-                            let xa = _mm512_i32gather_pd::<8>(a, r.x.as_ptr());
-                            let pa = _mm512_i32gather_pd::<8>(a, r.xp.as_ptr());
-                            let xb = _mm512_i32gather_pd::<8>(b, r.x.as_ptr());
-                            let pb = _mm512_i32gather_pd::<8>(b, r.xp.as_ptr());
-                            let v = _mm512_xor_si512(
-                                _mm512_xor_si512(_mm512_castpd_si512(xa), _mm512_castpd_si512(pa)),
-                                _mm512_xor_si512(_mm512_castpd_si512(xb), _mm512_castpd_si512(pb)),
-                            );
-                            s = _mm512_xor_si512(s, v);
-                        }
-                    }
-                    acc ^= black_box(_mm512_reduce_or_epi64(s) as u64);
-                }
-                acc
+        if std::is_x86_feature_detected!("avx512f") {
+            let (p, parts) = part;
+            let n = self.la.len();
+            let links = n * p / parts..n * (p + 1) / parts;
+            let (la, lb) = (&self.la[links.clone()], &self.lb[links]);
+            let mut acc = 0;
+            for _ in 0..steps {
+                // SAFETY: the CPU has AVX-512F; the ends are material indices, within `x` and
+                // `xp`, which nothing writes.
+                acc ^=
+                    black_box(unsafe { gathered_reads(la, lb, self.x.as_ptr(), self.xp.as_ptr()) });
             }
-            if std::is_x86_feature_detected!("avx512f") {
-                // SAFETY: the CPU has the feature.
-                return Some(unsafe { run(self, steps, part) });
-            }
+            return Some(acc);
         }
         let _ = (steps, part);
         None
@@ -711,6 +690,39 @@ impl Reads {
     }
 }
 
+/// The bits of `x[a]`, `xp[a]`, `x[b]`, `xp[b]` of every link (ends `la`, `lb`; whole blocks of
+/// eight), XOR-ed, eight links per AVX-512 gather.
+///
+/// # Safety
+/// The CPU must have AVX-512F, every end must be an index within the arrays `x` and `xp` point
+/// to, and nothing may write those arrays meanwhile.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn gathered_reads(la: &[u32], lb: &[u32], x: *const f64, xp: *const f64) -> u64 {
+    use std::arch::x86_64::*;
+    let mut s = _mm512_setzero_si512();
+    for i in (0..la.len().min(lb.len()) / 8 * 8).step_by(8) {
+        // SAFETY: `i + 8 <=` both lengths; the gathered elements are in bounds (the caller's
+        // promise).
+        unsafe {
+            let a = _mm256_loadu_si256(la.as_ptr().add(i).cast());
+            let b = _mm256_loadu_si256(lb.as_ptr().add(i).cast());
+            let v = _mm512_xor_si512(
+                _mm512_xor_si512(
+                    _mm512_castpd_si512(_mm512_i32gather_pd::<8>(a, x)),
+                    _mm512_castpd_si512(_mm512_i32gather_pd::<8>(a, xp)),
+                ),
+                _mm512_xor_si512(
+                    _mm512_castpd_si512(_mm512_i32gather_pd::<8>(b, x)),
+                    _mm512_castpd_si512(_mm512_i32gather_pd::<8>(b, xp)),
+                ),
+            );
+            s = _mm512_xor_si512(s, v);
+        }
+    }
+    _mm512_reduce_or_epi64(s) as u64
+}
+
 /// The least a parallel step must do on a network: the threads read both ends of their share of
 /// the links (gathered, as [`Reads::gathered`]), meet at a barrier, write the positions of their
 /// share of the masses (the next step's reads on the other threads must fetch them), and meet
@@ -720,7 +732,6 @@ fn exchange_on(reads: &Reads, masses: usize, steps: u64, threads: usize) -> Opti
     use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
     #[cfg(target_arch = "x86_64")]
     {
-        use std::arch::x86_64::*;
         if !std::is_x86_feature_detected!("avx512f") {
             return None;
         }
@@ -742,30 +753,6 @@ fn exchange_on(reads: &Reads, masses: usize, steps: u64, threads: usize) -> Opti
                 std::hint::spin_loop();
             }
         };
-        #[target_feature(enable = "avx512f")]
-        fn read(la: &[u32], lb: &[u32], x: *const f64, xp: *const f64) -> u64 {
-            let mut s = _mm512_setzero_si512();
-            for i in (0..la.len() / 8 * 8).step_by(8) {
-                // SAFETY: `i + 8 <= len`; the ends are material indices, within `x` and `xp`,
-                // which nobody writes in this phase (the barriers separate the phases).
-                unsafe {
-                    let a = _mm256_loadu_si256(la.as_ptr().add(i).cast());
-                    let b = _mm256_loadu_si256(lb.as_ptr().add(i).cast());
-                    let v = _mm512_xor_si512(
-                        _mm512_xor_si512(
-                            _mm512_castpd_si512(_mm512_i32gather_pd::<8>(a, x)),
-                            _mm512_castpd_si512(_mm512_i32gather_pd::<8>(a, xp)),
-                        ),
-                        _mm512_xor_si512(
-                            _mm512_castpd_si512(_mm512_i32gather_pd::<8>(b, x)),
-                            _mm512_castpd_si512(_mm512_i32gather_pd::<8>(b, xp)),
-                        ),
-                    );
-                    s = _mm512_xor_si512(s, v);
-                }
-            }
-            _mm512_reduce_or_epi64(s) as u64
-        }
         let t = Instant::now();
         std::thread::scope(|scope| {
             for p in 0..threads {
@@ -777,8 +764,11 @@ fn exchange_on(reads: &Reads, masses: usize, steps: u64, threads: usize) -> Opti
                     let (la, lb) = (&reads.la[links.clone()], &reads.lb[links]);
                     let mut acc = 0u64;
                     for step in 0..steps as usize {
-                        // SAFETY: the CPU has AVX-512F (checked above).
-                        acc ^= unsafe { read(la, lb, x.as_ptr().cast(), xp.as_ptr().cast()) };
+                        // SAFETY: the CPU has AVX-512F (checked above); the ends are material
+                        // indices, within `x` and `xp`, which nobody writes in this phase (the
+                        // barriers separate the phases).
+                        let (px, pxp) = (x.as_ptr().cast(), xp.as_ptr().cast());
+                        acc ^= unsafe { gathered_reads(la, lb, px, pxp) };
                         meet(2 * step + 1);
                         for i in mats.clone() {
                             let v = x[i].load(Ordering::Relaxed);

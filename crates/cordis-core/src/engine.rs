@@ -1712,17 +1712,8 @@ impl Kernel {
         ms: MasArgs<'_, '_>,
         term: impl Fn(usize) -> (u32, u32, bool),
     ) {
-        let (r, cur, prev, next, sf) = ms;
-        let n = r.len();
-        let terms = unit_terms::<D>(sf, n, &term);
         let signs: [f64; D] = std::array::from_fn(|j| if term(j).2 { -1.0 } else { 1.0 });
-        self.mas_with(r, cur, prev, next, sf, 0..n, |i, _| {
-            let mut f = 0.0;
-            for j in 0..D {
-                f += signs[j] * terms[j][i];
-            }
-            f
-        });
+        self.mas_terms::<D>(ms, &term, |j, f, t| f + signs[j] * t);
     }
 
     /// [`Kernel::mas_unit`] with the signs known at compile time: bit `j` of `NEG` set when term
@@ -1733,17 +1724,35 @@ impl Kernel {
         ms: MasArgs<'_, '_>,
         term: impl Fn(usize) -> (u32, u32, bool),
     ) {
+        self.mas_terms::<D>(
+            ms,
+            &term,
+            |j, f, t| {
+                if NEG >> j & 1 == 1 {
+                    f - t
+                } else {
+                    f + t
+                }
+            },
+        );
+    }
+
+    /// The loop of [`Kernel::mas_unit`] and [`Kernel::mas_signed`]: `F(n)` of the `i`-th MAS is
+    /// `add(D - 1, ... add(1, add(0, +0.0, t_0), t_1) ..., t_{D-1})`, `t_j` its term `j`.
+    #[inline(always)]
+    fn mas_terms<const D: usize>(
+        &self,
+        ms: MasArgs<'_, '_>,
+        term: &impl Fn(usize) -> (u32, u32, bool),
+        add: impl Fn(usize, f64, f64) -> f64,
+    ) {
         let (r, cur, prev, next, sf) = ms;
         let n = r.len();
-        let terms = unit_terms::<D>(sf, n, &term);
+        let terms = unit_terms::<D>(sf, n, term);
         self.mas_with(r, cur, prev, next, sf, 0..n, |i, _| {
             let mut f = 0.0;
             for (j, t) in terms.iter().enumerate() {
-                if NEG >> j & 1 == 1 {
-                    f -= t[i];
-                } else {
-                    f += t[i];
-                }
+                f = add(j, f, t[i]);
             }
             f
         });
