@@ -574,7 +574,8 @@ impl Stencil {
             fn avx512(st: &mut Stencil, steps: u64, arith: Arithmetic) -> f64 {
                 st.steps(steps, arith)
             }
-            #[target_feature(enable = "avx2")]
+            // (FMA as well, for `Fused`: `avx512f` implies it; without it `mul_add` is a library call)
+            #[target_feature(enable = "avx2,fma")]
             fn avx2(st: &mut Stencil, steps: u64, arith: Arithmetic) -> f64 {
                 st.steps(steps, arith)
             }
@@ -582,8 +583,8 @@ impl Stencil {
                 // SAFETY: the CPU has the feature.
                 return unsafe { avx512(self, steps, arith) };
             }
-            if std::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU has the feature.
+            if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+                // SAFETY: the CPU has the features.
                 return unsafe { avx2(self, steps, arith) };
             }
         }
