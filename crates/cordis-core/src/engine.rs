@@ -131,7 +131,13 @@ struct Segment {
     mats: Range<usize>,
     degree: usize,
     streams: Option<Range<usize>>,
+    /// With streams that all have unit steps: the slot of each term of the first MAS (`j < degree`)
+    /// and the signs (bit `j`: term `j` negated), decoded once here rather than at every step.
+    unit: Option<([u32; UNIT_TERMS], u32)>,
 }
+
+/// Most terms of a MAS whose sum is a unit-step loop (see [`Kernel::update_mas`]).
+const UNIT_TERMS: usize = 6;
 
 #[derive(Clone, Copy, Debug)]
 struct Cel {
@@ -1291,10 +1297,26 @@ impl Kernel {
                         }
                     }
                 }
+                let unit = (seg_streams.as_ref())
+                    .map(|st| &streams[st.clone()])
+                    .filter(|st| {
+                        (1..=UNIT_TERMS).contains(&d) && st.iter().all(|&(_, step)| step == 1)
+                    })
+                    .map(|st| {
+                        let mut slots = [0u32; UNIT_TERMS];
+                        let mut neg = 0u32;
+                        for (j, &(base, _)) in st.iter().enumerate() {
+                            let (slot, mask) = signed(base);
+                            slots[j] = slot;
+                            neg |= u32::from(mask != 0) << j;
+                        }
+                        (slots, neg)
+                    });
                 mas_segments.push(Segment {
                     mats,
                     degree: d,
                     streams: seg_streams,
+                    unit,
                 });
             }
         }
@@ -1814,8 +1836,30 @@ impl Kernel {
             };
             // progressions: edge j of the i-th MAS from `start` is `base_j + i step_j`
             let i0 = (start - seg.mats.start) as u32;
+            let n = end - start;
+            if let Some((slots, mask)) = seg.unit {
+                // unit steps, decoded in `build`: (slot, step, negated) of each term from `start`
+                // on; the sign of a stream is constant, so `f - t` (exactly the reference's
+                // `F -= f`) is chosen outside the loop, and the common patterns get loops with the
+                // signs built in
+                let term = move |j: usize| (slots[j] + i0, 1, mask >> j & 1 == 1);
+                let ms = (start..end, cur, prev, next, sf);
+                match (d, mask) {
+                    (2, 0b10) => self.mas_signed::<2, 0b10>(ms, term), // a string
+                    (2, 0b01) => self.mas_signed::<2, 0b01>(ms, term),
+                    (2, 0b00) => self.mas_signed::<2, 0b00>(ms, term),
+                    (2, 0b11) => self.mas_signed::<2, 0b11>(ms, term),
+                    (4, 0b1010) => self.mas_signed::<4, 0b1010>(ms, term), // a membrane
+                    (1, _) => self.mas_unit::<1>(ms, term),
+                    (2, _) => self.mas_unit::<2>(ms, term),
+                    (3, _) => self.mas_unit::<3>(ms, term),
+                    (4, _) => self.mas_unit::<4>(ms, term),
+                    (5, _) => self.mas_unit::<5>(ms, term),
+                    _ => self.mas_unit::<6>(ms, term),
+                }
+                continue;
+            }
             let streams = &self.streams[streams.clone()];
-            let unit = streams.iter().all(|&(_, step)| step == 1);
             // (slot, step, negated) of each stream from `start` on; the sign of a stream is
             // constant, so `f - t` (exactly the reference's `F -= f`) is chosen outside the loop
             let term = |j: usize| {
@@ -1823,30 +1867,9 @@ impl Kernel {
                 let (slot, mask) = signed(base + i0 * step);
                 (slot, step, mask != 0)
             };
-            let n = end - start;
-            match (d, unit) {
-                (0, _) => self.mas_with(start..end, cur, prev, next, sf, 0..n, |_, _| 0.0),
-                (_, true) => {
-                    // the signs of the terms as a mask (bit j: term j negated): the common
-                    // patterns get loops with the signs built in
-                    let mask = (0..d).fold(0u32, |m, j| m | u32::from(term(j).2) << j);
-                    let ms = (start..end, cur, prev, next, sf);
-                    match (d, mask) {
-                        (2, 0b10) => self.mas_signed::<2, 0b10>(ms, term), // a string
-                        (2, 0b01) => self.mas_signed::<2, 0b01>(ms, term),
-                        (2, 0b00) => self.mas_signed::<2, 0b00>(ms, term),
-                        (2, 0b11) => self.mas_signed::<2, 0b11>(ms, term),
-                        (4, 0b1010) => self.mas_signed::<4, 0b1010>(ms, term), // a membrane
-                        (1, _) => self.mas_unit::<1>(ms, term),
-                        (2, _) => self.mas_unit::<2>(ms, term),
-                        (3, _) => self.mas_unit::<3>(ms, term),
-                        (4, _) => self.mas_unit::<4>(ms, term),
-                        (5, _) => self.mas_unit::<5>(ms, term),
-                        (6, _) => self.mas_unit::<6>(ms, term),
-                        _ => self.mas_unit::<7>(ms, term), // (unreachable: d <= 6 here)
-                    }
-                }
-                (_, false) => {
+            match d {
+                0 => self.mas_with(start..end, cur, prev, next, sf, 0..n, |_, _| 0.0),
+                _ => {
                     self.mas_with(start..end, cur, prev, next, sf, 0..n, |i, sf| {
                         let i = i as u32;
                         let mut f = 0.0;
@@ -2009,10 +2032,13 @@ fn unit_terms<'a, const D: usize>(
     n: usize,
     term: &impl Fn(usize) -> (u32, u32, bool),
 ) -> [&'a [f64]; D] {
-    std::array::from_fn(|j| {
+    // (a loop rather than `array::from_fn`, which the compiler left as a call)
+    let mut terms: [&'a [f64]; D] = [&[]; D];
+    for (j, t) in terms.iter_mut().enumerate() {
         let s = term(j).0 as usize;
-        &sf.0[s..s + n]
-    })
+        *t = &sf.0[s..s + n];
+    }
+    terms
 }
 
 /// The arguments of a MAS loop: storage slots, `x(n)` and `x(n-1)` of those MAS, where their
