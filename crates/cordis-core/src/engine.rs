@@ -1409,11 +1409,12 @@ impl Kernel {
     /// to the first tile any of its links needs. A tile's links are computed just before its
     /// materials are updated, while the forces and positions they share are in the L1 cache.
     fn tiling(&self, tile: usize) -> (Vec<Tile>, Vec<Run>) {
-        let count = self.n_mce.div_ceil(tile).max(1);
+        let bounds = self.tile_bounds(tile);
+        let count = bounds.len() - 1;
         let tile_of = |s: u32| {
             let s = s as usize;
             if s < self.n_mc {
-                s / tile
+                bounds.partition_point(|&b| b <= s) - 1
             } else {
                 usize::MAX
             }
@@ -1448,10 +1449,37 @@ impl Kernel {
             runs.extend(pieces);
             tiles.push(Tile {
                 runs: first..runs.len(),
-                mats: (t * tile).min(self.n_mce)..((t + 1) * tile).min(self.n_mce),
+                mats: bounds[t]..bounds[t + 1],
             });
         }
         (tiles, runs)
+    }
+
+    /// Where the tiles of the single-thread step start (then `n_mce`, at least one tile): at most
+    /// `tile` materials each, cut between MAS segments where the segments are shorter than a tile
+    /// (a membrane's rows), so that no row is cut into two pieces, each with its own loop
+    /// remainders; a longer segment is cut every `tile` materials.
+    fn tile_bounds(&self, tile: usize) -> Vec<usize> {
+        let mut bounds = vec![0];
+        let ends = (self.mas_segments.iter().map(|g| g.mats.end)).chain([self.n_mce]);
+        let mut seg_start = 0;
+        for end in ends {
+            let start = *bounds.last().unwrap_or(&0);
+            // (a segment that fits in a tile starts a new one rather than being cut; a longer one
+            // is cut anyway)
+            if end - start > tile && seg_start > start && end - seg_start <= tile {
+                bounds.push(seg_start);
+            }
+            while end - bounds.last().unwrap_or(&0) > tile {
+                let b = bounds.last().unwrap_or(&0) + tile;
+                bounds.push(b);
+            }
+            seg_start = end;
+        }
+        if *bounds.last().unwrap_or(&0) < self.n_mce || bounds.len() == 1 {
+            bounds.push(self.n_mce);
+        }
+        bounds
     }
 
     /// Cuts links, inputs and materials into `threads` parts of about equal cost.
@@ -3222,6 +3250,55 @@ mod tests {
         assert!(first.mostly_indexed() && !first.in_declaration_order());
         assert!(Kernel::build(&ring, true).whole.runs.len() > first.whole.runs.len());
         assert!(!Kernel::new(&ring).compact);
+    }
+
+    /// Tiles are cut between the rows of a membrane (MAS segments shorter than a tile), hold at
+    /// most a tile each, and cover the moving materials in order; a string longer than a tile is
+    /// cut every tile.
+    #[test]
+    fn tiles_are_cut_between_rows() {
+        let (rows, cols) = (30, 70);
+        let mut net = Network::new();
+        let m = masses_at_rest(&mut net, rows * cols);
+        let law = Interaction::Ref { k: 0.1, z: 1e-4 };
+        for r in 0..rows {
+            let g = net.add_material(Material::Sol { x0: 0.0 });
+            net.add_link(law.clone(), g, m[r * cols]);
+            for c in 0..cols - 1 {
+                net.add_link(law.clone(), m[r * cols + c], m[r * cols + c + 1]);
+            }
+            let g = net.add_material(Material::Sol { x0: 0.0 });
+            net.add_link(law.clone(), m[r * cols + cols - 1], g);
+        }
+        for c in 0..cols {
+            for r in 0..rows - 1 {
+                net.add_link(law.clone(), m[r * cols + c], m[(r + 1) * cols + c]);
+            }
+        }
+        let k = Kernel::new(&net);
+        let rows_of = |b: usize| b.is_multiple_of(cols);
+        let bounds = k.tile_bounds(TILE);
+        assert_eq!((bounds[0], *bounds.last().unwrap()), (0, rows * cols));
+        assert!(bounds.len() > 2);
+        for w in bounds.windows(2) {
+            assert!(w[0] < w[1] && w[1] - w[0] <= TILE, "{bounds:?}");
+            assert!(rows_of(w[0]) && rows_of(w[1]), "a row is cut: {bounds:?}");
+        }
+        assert!(k
+            .tiles
+            .iter()
+            .map(|t| t.mats.clone())
+            .eq(bounds.windows(2).map(|w| w[0]..w[1])));
+        // a string of 2,500 masses (one segment): cut every tile
+        let mut string = Network::new();
+        let s = masses_at_rest(&mut string, 2500);
+        for w in s.windows(2) {
+            string.add_link(law.clone(), w[0], w[1]);
+        }
+        let k = Kernel::new(&string);
+        // (its two end masses, of degree 1, are a segment of their own, stored first)
+        assert_eq!(k.tile_bounds(TILE), vec![0, TILE, 2 * TILE, 2500]);
+        assert_eq!(Kernel::new(&Network::new()).tile_bounds(TILE), vec![0, 0]);
     }
 
     /// The parts own every link exactly once, in runs that agree with the whole network's, and
