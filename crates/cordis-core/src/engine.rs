@@ -147,6 +147,14 @@ struct Cel {
     r: f64,
 }
 
+impl Cel {
+    /// `x(n+1)` from `x(n)`, `x(n-1)` and `F(n)` (FORMALISM.md, with `a`, `b` computed once).
+    #[inline(always)]
+    fn next(&self, x: f64, xp: f64, f: f64) -> f64 {
+        self.r + self.a * (x - self.r) + self.b * (xp - self.r) + f / self.m
+    }
+}
+
 /// An LNL law (elastic curve of `d`, viscous curve of `v`), in the fastest form that evaluates
 /// exactly as [`Curve::eval`].
 #[derive(Clone, Debug)]
@@ -900,38 +908,21 @@ impl State {
             acc[s as usize] += sig.at(n);
         }
         k.record(cur, &self.sf[..k.nl], frame);
-        let nm = k.n_mas;
-        let mas = (next[..nm].iter_mut()).zip(cur[..nm].iter().zip(&prev[..nm]).zip(&acc[..nm]));
-        match &k.mas {
-            MasLaw::UniformInv(inv) => {
-                for (p, ((&x, &xp), &f)) in mas {
-                    *p = 2.0 * x - xp + f * inv;
-                }
-            }
-            MasLaw::UniformDiv(m) => {
-                for (p, ((&x, &xp), &f)) in mas {
-                    *p = 2.0 * x - xp + f / m;
-                }
-            }
-            MasLaw::Inv(inv) => {
-                for ((p, ((&x, &xp), &f)), inv) in mas.zip(inv) {
-                    *p = 2.0 * x - xp + f * inv;
-                }
-            }
-            MasLaw::Div(ms) => {
-                for ((p, ((&x, &xp), &f)), m) in mas.zip(ms) {
-                    *p = 2.0 * x - xp + f / m;
-                }
-            }
-        }
-        let r = nm..k.n_mc;
-        for (((p, (&x, &xp)), &f), c) in next[r.clone()]
-            .iter_mut()
-            .zip(cur[r.clone()].iter().zip(&prev[r.clone()]))
-            .zip(&acc[r])
-            .zip(&k.cel)
-        {
-            *p = c.r + c.a * (x - c.r) + c.b * (xp - c.r) + f / c.m;
+        let (nm, nc) = (k.n_mas, k.n_mc);
+        let sf = Forces(&self.sf);
+        let forces = acc[..nm].iter();
+        k.mas_with(
+            0..nm,
+            &cur[..nm],
+            &prev[..nm],
+            &mut next[..nm],
+            sf,
+            forces,
+            |&f, _| f,
+        );
+        let cel = (next[nm..nc].iter_mut()).zip(cur[nm..nc].iter().zip(&prev[nm..nc]));
+        for ((p, (&x, &xp)), (&f, c)) in cel.zip(acc[nm..nc].iter().zip(&k.cel)) {
+            *p = c.next(x, xp, f);
         }
         for (p, sig) in next[k.n_mc..k.n_mce].iter_mut().zip(&k.enx) {
             *p = sig.at(n + 1);
@@ -1460,23 +1451,23 @@ impl Kernel {
     /// (a membrane's rows), so that no row is cut into two pieces, each with its own loop
     /// remainders; a longer segment is cut every `tile` materials.
     fn tile_bounds(&self, tile: usize) -> Vec<usize> {
-        let mut bounds = vec![0];
+        let (mut bounds, mut last) = (vec![0], 0);
         let ends = (self.mas_segments.iter().map(|g| g.mats.end)).chain([self.n_mce]);
         let mut seg_start = 0;
         for end in ends {
-            let start = *bounds.last().unwrap_or(&0);
             // (a segment that fits in a tile starts a new one rather than being cut; a longer one
             // is cut anyway)
-            if end - start > tile && seg_start > start && end - seg_start <= tile {
-                bounds.push(seg_start);
+            if end - last > tile && seg_start > last && end - seg_start <= tile {
+                last = seg_start;
+                bounds.push(last);
             }
-            while end - bounds.last().unwrap_or(&0) > tile {
-                let b = bounds.last().unwrap_or(&0) + tile;
-                bounds.push(b);
+            while end - last > tile {
+                last += tile;
+                bounds.push(last);
             }
             seg_start = end;
         }
-        if *bounds.last().unwrap_or(&0) < self.n_mce || bounds.len() == 1 {
+        if last < self.n_mce || bounds.len() == 1 {
             bounds.push(self.n_mce);
         }
         bounds
@@ -1803,8 +1794,7 @@ impl Kernel {
             let edges = self.csr(cel.clone());
             let xs = cur[cel.clone()].iter().zip(&prev[cel]);
             for (((p, (&x, &xp)), e), c) in next.iter_mut().zip(xs).zip(edges).zip(params) {
-                let f = sum(e, sf);
-                *p = c.r + c.a * (x - c.r) + c.b * (xp - c.r) + f / c.m;
+                *p = c.next(x, xp, sum(e, sf));
             }
         }
         let enx = within(self.n_mc..self.n_mce);
