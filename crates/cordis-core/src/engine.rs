@@ -90,6 +90,10 @@ enum Ends {
     /// `Kernel::new` checks): no index to load, and with unit steps the positions are contiguous
     /// slices, so the loop vectorises (strings, rows of membranes).
     Step { a0: u32, sa: u32, b0: u32, sb: u32 },
+    /// The links are those of storage slots `Kernel::listed[from..to]` (ascending, each within
+    /// `start..end`, which is only their span): short indexed runs of one tile with the same law
+    /// and parameters, gathered into one loop (see [`Kernel::tiling`]). Only in `tile_runs`.
+    Listed { from: u32, to: u32 },
 }
 
 impl Run {
@@ -98,6 +102,7 @@ impl Run {
         let i = (start - self.start) as u32;
         let ends = match self.ends {
             Ends::Indexed => Ends::Indexed,
+            Ends::Listed { .. } => unreachable!("listed runs are gathered after every cut"),
             Ends::Step { a0, sa, b0, sb } => Ends::Step {
                 a0: a0 + i * sa,
                 sa,
@@ -302,6 +307,8 @@ struct Part {
 struct Tile {
     runs: Range<usize>,
     mats: Range<usize>,
+    /// the first of `Kernel::mas_segments` that reaches `mats` (see [`Kernel::first_segment`])
+    seg: usize,
 }
 
 /// Materials per tile: their positions, forces and links' forces fit in the L1 data cache.
@@ -379,6 +386,8 @@ struct Kernel {
     /// the single-thread step, tile by tile (see `Kernel::tiling`)
     tiles: Vec<Tile>,
     tile_runs: Vec<Run>,
+    /// the link slots of the `Ends::Listed` runs of `tile_runs`
+    listed: Vec<u32>,
     /// fewer than half of the links have both ends moving and more than a tile apart in
     /// storage: no locality (see `Engine::is_parallel`)
     scattered: bool,
@@ -878,7 +887,8 @@ impl State {
             }
             let mats = tile.mats.clone();
             let sf = Forces(&self.sf);
-            k.materials_phase(mats.clone(), n, cur, prev, &mut next[mats], sf);
+            let next = &mut next[mats.clone()];
+            k.materials_phase(mats, tile.seg, n, cur, prev, next, sf);
         }
         k.record(cur, &self.sf[..nl], frame);
         self.n = n + 1;
@@ -1379,6 +1389,7 @@ impl Kernel {
             parts: Vec::new(),
             tiles: Vec::new(),
             tile_runs: Vec::new(),
+            listed: Vec::new(),
             scattered: false,
             compact: false,
             enf_slot: enf_slot.iter().map(|&s| s as u32).collect(),
@@ -1390,7 +1401,7 @@ impl Kernel {
             .count();
         k.scattered = 2 * local < nl;
         k.parts = vec![k.whole.clone()];
-        (k.tiles, k.tile_runs) = k.tiling(TILE);
+        (k.tiles, k.tile_runs, k.listed) = k.tiling(TILE);
         k
     }
 
@@ -1399,7 +1410,7 @@ impl Kernel {
     /// has none), or, for a run whose links are not in the order of their tiles, the whole run
     /// to the first tile any of its links needs. A tile's links are computed just before its
     /// materials are updated, while the forces and positions they share are in the L1 cache.
-    fn tiling(&self, tile: usize) -> (Vec<Tile>, Vec<Run>) {
+    fn tiling(&self, tile: usize) -> (Vec<Tile>, Vec<Run>, Vec<u32>) {
         let bounds = self.tile_bounds(tile);
         let count = bounds.len() - 1;
         let tile_of = |s: u32| {
@@ -1434,16 +1445,69 @@ impl Kernel {
                 }
             }
         }
-        let (mut tiles, mut runs) = (Vec::with_capacity(count), Vec::new());
+        let (mut tiles, mut runs, mut listed) = (Vec::with_capacity(count), Vec::new(), Vec::new());
         for (t, pieces) in per_tile.into_iter().enumerate() {
             let first = runs.len();
-            runs.extend(pieces);
+            runs.extend(self.gather_short(pieces, &mut listed));
             tiles.push(Tile {
                 runs: first..runs.len(),
                 mats: bounds[t]..bounds[t + 1],
+                seg: self.first_segment(bounds[t]),
             });
         }
-        (tiles, runs)
+        (tiles, runs, listed)
+    }
+
+    /// A tile's run pieces with its short indexed runs (fewer than [`STEP_MIN`] links) of the same
+    /// law and parameters gathered into one `Ends::Listed` run each, in place of the first of
+    /// them, their slots appended to `listed`: the two ground links between the rows of a
+    /// membrane are one loop per tile instead of a loop per row. The forces are the same, link by
+    /// link: only the order in which links are computed changes, and the tiled step sums nothing
+    /// while it computes them.
+    fn gather_short(&self, pieces: Vec<Run>, listed: &mut Vec<u32>) -> Vec<Run> {
+        let short = |r: &Run| r.ends == Ends::Indexed && r.end - r.start < STEP_MIN;
+        // (law, uniform, and a uniform run's parameters: those of its first link)
+        let key = |r: &Run| {
+            let s = r.start;
+            let bits = |v: &[f64]| v.get(s).map_or(0, |x| x.to_bits());
+            let params = (bits(&self.lk), bits(&self.lz), bits(&self.ls));
+            let lnl = self.lnl_of.get(s).copied().unwrap_or(0);
+            (r.law, r.uniform, r.uniform.then_some((params, lnl)))
+        };
+        let mut out: Vec<Run> = Vec::with_capacity(pieces.len());
+        // per group: where it is in `out`, and its slots
+        let mut groups: Vec<(usize, Vec<u32>)> = Vec::new();
+        for run in pieces {
+            if !short(&run) {
+                out.push(run);
+                continue;
+            }
+            let group = groups
+                .iter_mut()
+                .find(|(at, _)| key(&out[*at]) == key(&run));
+            match group {
+                Some((_, slots)) => slots.extend(run.start as u32..run.end as u32),
+                None => {
+                    groups.push((out.len(), (run.start as u32..run.end as u32).collect()));
+                    out.push(run);
+                }
+            }
+        }
+        for (at, mut slots) in groups {
+            if slots.len() == out[at].end - out[at].start {
+                continue; // a single run: kept as it is
+            }
+            slots.sort_unstable();
+            let from = listed.len() as u32;
+            listed.extend(&slots);
+            let run = &mut out[at];
+            (run.start, run.end) = (slots[0] as usize, slots[slots.len() - 1] as usize + 1);
+            run.ends = Ends::Listed {
+                from,
+                to: listed.len() as u32,
+            };
+        }
+        out
     }
 
     /// Where the tiles of the single-thread step start (then `n_mce`, at least one tile): at most
@@ -1727,6 +1791,14 @@ impl Kernel {
                     st.sink.take(a0 + i as u32, b0 + i as u32, *f);
                 }
             }
+            Ends::Listed { from, to } => {
+                for &l in &self.listed[from as usize..to as usize] {
+                    let l = l as usize;
+                    let (a, b, i) = (self.la[l], self.lb[l], l - run.start);
+                    lf[i] = force(i, st.x(a), st.xp(a), st.x(b), st.xp(b));
+                    st.sink.take(a, b, lf[i]);
+                }
+            }
             Ends::Step { a0, sa, b0, sb } => {
                 let (mut a, mut b) = (a0, b0);
                 for (i, f) in lf.iter_mut().enumerate() {
@@ -1764,11 +1836,14 @@ impl Kernel {
     }
 
     /// Phase 2 for materials `mats` (storage slots within `0..n_mce`): each sums its forces and
-    /// writes `x(n+1)` over `x(n-1)` in `next`, which is exactly `mats` of the `x(n-1)` buffer.
+    /// writes `x(n+1)` over `x(n-1)` in `next`, which is exactly `mats` of the `x(n-1)` buffer; `seg`
+    /// is [`Kernel::first_segment`] of `mats.start`.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)] // the phase's inputs, each a slice or an index
     fn materials_phase(
         &self,
         mats: Range<usize>,
+        seg: usize,
         n: u64,
         cur: &[f64],
         prev: &[f64],
@@ -1785,7 +1860,7 @@ impl Kernel {
         let mas = within(0..self.n_mas);
         if !mas.is_empty() {
             let next = &mut next[mas.start - m0..mas.end - m0];
-            self.update_mas(mas.clone(), &cur[mas.clone()], &prev[mas], next, sf);
+            self.update_mas(mas.clone(), seg, &cur[mas.clone()], &prev[mas], next, sf);
         }
         let cel = within(self.n_mas..self.n_mc);
         if !cel.is_empty() {
@@ -1807,6 +1882,12 @@ impl Kernel {
         }
     }
 
+    /// The first of the MAS segments (in storage order) that ends after storage slot `s`: where
+    /// the MAS update of materials from `s` on starts (computed once per tile).
+    fn first_segment(&self, s: usize) -> usize {
+        self.mas_segments.partition_point(|g| g.mats.end <= s)
+    }
+
     /// The edge lists of materials `r`, from the offsets.
     #[inline(always)]
     fn csr(&self, r: Range<usize>) -> impl Iterator<Item = &[u32]> + '_ {
@@ -1820,13 +1901,13 @@ impl Kernel {
     fn update_mas(
         &self,
         r: Range<usize>,
+        first: usize,
         cur: &[f64],
         prev: &[f64],
         next: &mut [f64],
         sf: Forces<'_>,
     ) {
-        // (segments are in storage order: skip to the first that reaches `r`)
-        let first = self.mas_segments.partition_point(|g| g.mats.end <= r.start);
+        debug_assert_eq!(first, self.first_segment(r.start));
         for seg in &self.mas_segments[first..] {
             if seg.mats.start >= r.end {
                 break;
@@ -2738,7 +2819,8 @@ impl Job<'_> {
                     while let Some(i) = self.claims[threads + q].next(base + chunks.len()) {
                         let mats = chunks[i - base].clone();
                         let next = self.pos[r.next].write(mats.clone());
-                        k.materials_phase(mats, n, cur, prev, next, Forces(sf));
+                        let seg = k.first_segment(mats.start);
+                        k.materials_phase(mats, seg, n, cur, prev, next, Forces(sf));
                     }
                 }
             }
@@ -3289,6 +3371,89 @@ mod tests {
         // (its two end masses, of degree 1, are a segment of their own, stored first)
         assert_eq!(k.tile_bounds(TILE), vec![0, TILE, 2 * TILE, 2500]);
         assert_eq!(Kernel::new(&Network::new()).tile_bounds(TILE), vec![0, 0]);
+    }
+
+    /// The links of `run` (storage slots), a listed run's from its list.
+    fn slots_of(k: &Kernel, run: &Run) -> Vec<usize> {
+        match run.ends {
+            Ends::Listed { from, to } => (k.listed[from as usize..to as usize].iter())
+                .map(|&l| l as usize)
+                .collect(),
+            _ => (run.start..run.end).collect(),
+        }
+    }
+
+    /// The tiles compute every link exactly once, each listed run gathering short indexed runs
+    /// of one law and parameters: a membrane's row-end ground links are one loop per tile.
+    #[test]
+    fn short_runs_are_gathered_per_tile() {
+        let (rows, cols) = (30, 70);
+        let mut net = Network::new();
+        let m = masses_at_rest(&mut net, rows * cols);
+        let law = Interaction::Ref { k: 0.1, z: 1e-4 };
+        for r in 0..rows {
+            let g = net.add_material(Material::Sol { x0: 0.0 });
+            net.add_link(law.clone(), g, m[r * cols]);
+            for c in 0..cols - 1 {
+                net.add_link(law.clone(), m[r * cols + c], m[r * cols + c + 1]);
+            }
+            let g = net.add_material(Material::Sol { x0: 0.0 });
+            net.add_link(law.clone(), m[r * cols + cols - 1], g);
+        }
+        for c in 0..cols {
+            for r in 0..rows - 1 {
+                net.add_link(law.clone(), m[r * cols + c], m[(r + 1) * cols + c]);
+            }
+        }
+        let nets = [
+            net,
+            irregular(3, 40),
+            irregular(8, 300),
+            short_strings(60, 20),
+        ];
+        for (i, net) in nets.iter().enumerate() {
+            let k = Kernel::build(net, false);
+            let mut seen = vec![0; k.nl];
+            for tile in &k.tiles {
+                let runs = &k.tile_runs[tile.runs.clone()];
+                for (j, run) in runs.iter().enumerate() {
+                    for l in slots_of(&k, run) {
+                        assert!((run.start..run.end).contains(&l), "network {i}");
+                        seen[l] += 1;
+                    }
+                    let short = |r: &Run| r.ends == Ends::Indexed && r.end - r.start < STEP_MIN;
+                    if short(run) || matches!(run.ends, Ends::Listed { .. }) {
+                        // no two short or listed runs of one law could have been one
+                        let key = |r: &Run| {
+                            let bits = |v: &[f64]| v.get(r.start).map(|x| x.to_bits());
+                            let params = r.uniform.then(|| (bits(&k.lk), bits(&k.lz)));
+                            (r.law, r.uniform, params, k.lnl_of.get(r.start))
+                        };
+                        let twin = runs[j + 1..].iter().any(|r| {
+                            (short(r) || matches!(r.ends, Ends::Listed { .. }))
+                                && key(r) == key(run)
+                        });
+                        assert!(!twin, "network {i}: {runs:?}");
+                    }
+                }
+            }
+            assert!(seen.iter().all(|&c| c == 1), "network {i}: {seen:?}");
+        }
+        // the membrane: per tile, one listed run of its rows' ground links
+        let k = Kernel::build(&nets[0], false);
+        for tile in &k.tiles {
+            let runs = &k.tile_runs[tile.runs.clone()];
+            let listed: Vec<&Run> = (runs.iter())
+                .filter(|r| matches!(r.ends, Ends::Listed { .. }))
+                .collect();
+            assert_eq!(listed.len(), 1, "{runs:?}");
+            let grounds = slots_of(&k, listed[0]);
+            assert_eq!(grounds.len(), 2 * tile.mats.len() / cols);
+            assert!(grounds
+                .iter()
+                .all(|&l| k.la[l].max(k.lb[l]) as usize >= k.n_mce));
+            assert!(runs.iter().all(|r| r.ends != Ends::Indexed), "{runs:?}");
+        }
     }
 
     /// The parts own every link exactly once, in runs that agree with the whole network's, and
