@@ -46,6 +46,7 @@ use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::curve::{ExactCurve, SmallCurve};
+use crate::lanes::{Avx512, LANES};
 use crate::parallel::{Poisoned, Pool, SharedBuf, SpinBarrier, Task};
 use crate::{Curve, Interaction, LinkId, MatId, Material, Network, Output, Probe, Signal};
 
@@ -1780,8 +1781,10 @@ impl Kernel {
                 // contiguous: plain slices (checked once here), which the compiler vectorises
                 let (a, b) = (a0 as usize..a0 as usize + n, b0 as usize..b0 as usize + n);
                 let (xa, pa, xb, pb) = (&st.x[a.clone()], &st.xp[a], &st.x[b.clone()], &st.xp[b]);
-                for (i, (((f, &xa), &pa), (&xb, &pb))) in lf
-                    .iter_mut()
+                // (with AVX-512 the last `n % 8` links are one masked block, below)
+                let tails = self.tails();
+                let body = tails.map_or(n, |_| n - n % LANES);
+                for (i, (((f, &xa), &pa), (&xb, &pb))) in (lf[..body].iter_mut())
                     .zip(xa)
                     .zip(pa)
                     .zip(xb.iter().zip(pb))
@@ -1789,6 +1792,20 @@ impl Kernel {
                 {
                     *f = force(i, xa, pa, xb, pb);
                     st.sink.take(a0 + i as u32, b0 + i as u32, *f);
+                }
+                if let Some(cpu) = tails.filter(|_| body < n) {
+                    let (xa, pa) = (cpu.load(&xa[body..]), cpu.load(&pa[body..]));
+                    let (xb, pb) = (cpu.load(&xb[body..]), cpu.load(&pb[body..]));
+                    // (the lanes past the end compute on zeros, with the run's last index, and
+                    // are not stored)
+                    let mut f = [0.0; LANES];
+                    for (j, f) in f.iter_mut().enumerate() {
+                        *f = force((body + j).min(n - 1), xa[j], pa[j], xb[j], pb[j]);
+                    }
+                    cpu.store(&mut lf[body..], f);
+                    for (i, &f) in lf.iter().enumerate().skip(body) {
+                        st.sink.take(a0 + i as u32, b0 + i as u32, f);
+                    }
                 }
             }
             Ends::Listed { from, to } => {
@@ -2034,14 +2051,79 @@ impl Kernel {
     ) {
         let (r, cur, prev, next, sf) = ms;
         let n = r.len();
-        let terms = unit_terms::<D>(sf, n, term);
-        self.mas_with(r, cur, prev, next, sf, 0..n, |i, _| {
-            let mut f = 0.0;
-            for (j, t) in terms.iter().enumerate() {
-                f = add(j, f, t[i]);
+        // (with AVX-512 the last `n % 8` MAS are one masked block, below)
+        let tails = self.tails();
+        let body = tails.map_or(n, |_| n - n % LANES);
+        let (cur, prev, next) = (&cur[..n], &prev[..n], &mut next[..n]);
+        let terms = unit_terms::<D>(sf, 0..body, term);
+        self.mas_with(
+            r.start..r.start + body,
+            &cur[..body],
+            &prev[..body],
+            &mut next[..body],
+            sf,
+            0..body,
+            |i, _| {
+                let mut f = 0.0;
+                for (j, t) in terms.iter().enumerate() {
+                    f = add(j, f, t[i]);
+                }
+                f
+            },
+        );
+        let Some(cpu) = tails.filter(|_| body < n) else {
+            return;
+        };
+        let (x, xp) = (cpu.load(&cur[body..]), cpu.load(&prev[body..]));
+        let mut t = [[0.0; LANES]; D];
+        for (t, s) in t.iter_mut().zip(unit_terms::<D>(sf, body..n, term)) {
+            *t = cpu.load(s);
+        }
+        let mut f = [0.0; LANES];
+        for (t, tj) in t.iter().enumerate() {
+            for (f, &tj) in f.iter_mut().zip(tj) {
+                *f = add(t, *f, tj);
             }
-            f
-        });
+        }
+        // (the lanes past the end compute on zeros, a division by zero too, and are not stored)
+        let mut out = [0.0; LANES];
+        let rest = r.start + body..r.end;
+        match &self.mas {
+            MasLaw::UniformInv(inv) => {
+                for (j, o) in out.iter_mut().enumerate() {
+                    *o = by_inv(x[j], xp[j], f[j], *inv);
+                }
+            }
+            MasLaw::UniformDiv(m) => {
+                for (j, o) in out.iter_mut().enumerate() {
+                    *o = by_div(x[j], xp[j], f[j], *m);
+                }
+            }
+            MasLaw::Inv(inv) => {
+                let inv = cpu.load(&inv[rest]);
+                for (j, o) in out.iter_mut().enumerate() {
+                    *o = by_inv(x[j], xp[j], f[j], inv[j]);
+                }
+            }
+            MasLaw::Div(ms) => {
+                let m = cpu.load(&ms[rest]);
+                for (j, o) in out.iter_mut().enumerate() {
+                    *o = by_div(x[j], xp[j], f[j], m[j]);
+                }
+            }
+        }
+        cpu.store(&mut next[body..], out);
+    }
+
+    /// The proof of AVX-512 when the loops are compiled for it: their last `n % 8` items are
+    /// then one masked block (see [`crate::lanes`]).
+    #[inline(always)]
+    fn tails(&self) -> Option<Avx512> {
+        match self.simd {
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx512(cpu) => Some(cpu),
+            _ => None,
+        }
     }
 
     /// The MAS loop over `r`: `next` holds `x(n-1)` on entry and `x(n+1)` on exit; `force(e, sf)`
@@ -2062,26 +2144,39 @@ impl Kernel {
         match &self.mas {
             MasLaw::UniformInv(inv) => {
                 for ((p, (&x, &xp)), e) in items {
-                    *p = 2.0 * x - xp + force(e, sf) * inv;
+                    *p = by_inv(x, xp, force(e, sf), *inv);
                 }
             }
             MasLaw::UniformDiv(m) => {
                 for ((p, (&x, &xp)), e) in items {
-                    *p = 2.0 * x - xp + force(e, sf) / m;
+                    *p = by_div(x, xp, force(e, sf), *m);
                 }
             }
             MasLaw::Inv(inv) => {
-                for (((p, (&x, &xp)), e), inv) in items.zip(&inv[r]) {
-                    *p = 2.0 * x - xp + force(e, sf) * inv;
+                for (((p, (&x, &xp)), e), &inv) in items.zip(&inv[r]) {
+                    *p = by_inv(x, xp, force(e, sf), inv);
                 }
             }
             MasLaw::Div(ms) => {
-                for (((p, (&x, &xp)), e), m) in items.zip(&ms[r]) {
-                    *p = 2.0 * x - xp + force(e, sf) / m;
+                for (((p, (&x, &xp)), e), &m) in items.zip(&ms[r]) {
+                    *p = by_div(x, xp, force(e, sf), m);
                 }
             }
         }
     }
+}
+
+/// A MAS's `x(n+1) = 2 x(n) - x(n-1) + F(n) / M` (FORMALISM.md), with `1 / M` a power of two:
+/// multiplied by `inv` (the same bits, see [`is_power_of_two`]).
+#[inline(always)]
+fn by_inv(x: f64, xp: f64, f: f64, inv: f64) -> f64 {
+    2.0 * x - xp + f * inv
+}
+
+/// A MAS's `x(n+1)`, dividing by `m`.
+#[inline(always)]
+fn by_div(x: f64, xp: f64, f: f64, m: f64) -> f64 {
+    2.0 * x - xp + f / m
 }
 
 /// Which of the three position buffers holds what at step `n` (see the module documentation).
@@ -2123,19 +2218,19 @@ impl Roles {
     }
 }
 
-/// The `D` slices of `sf` that the `n` MAS of a unit-step segment read, term `j` from slot
-/// `term(j).0` on.
+/// The `D` slices of `sf` that MAS `r` (counted from the first of a unit-step segment) read, term
+/// `j` of the first MAS being slot `term(j).0`.
 #[inline(always)]
 fn unit_terms<'a, const D: usize>(
     sf: Forces<'a>,
-    n: usize,
+    r: Range<usize>,
     term: &impl Fn(usize) -> (u32, u32, bool),
 ) -> [&'a [f64]; D] {
     // (a loop rather than `array::from_fn`, which the compiler left as a call)
     let mut terms: [&'a [f64]; D] = [&[]; D];
     for (j, t) in terms.iter_mut().enumerate() {
         let s = term(j).0 as usize;
-        *t = &sf.0[s..s + n];
+        *t = &sf.0[s + r.start..s + r.end];
     }
     terms
 }
@@ -2158,16 +2253,17 @@ enum Simd {
     None,
     #[cfg(target_arch = "x86_64")]
     Avx2,
+    /// (with the proof that the CPU has it, for the loops' masked tails: see [`crate::lanes`])
     #[cfg(target_arch = "x86_64")]
-    Avx512,
+    Avx512(Avx512),
 }
 
 impl Simd {
     fn detect() -> Simd {
         #[cfg(target_arch = "x86_64")]
         {
-            if std::is_x86_feature_detected!("avx512f") {
-                return Simd::Avx512;
+            if let Some(cpu) = Avx512::detect() {
+                return Simd::Avx512(cpu);
             }
             if std::is_x86_feature_detected!("avx2") {
                 return Simd::Avx2;
@@ -2201,7 +2297,7 @@ fn vectorised<W: Vectorised>(simd: Simd, work: W) -> W::Output {
         match simd {
             // SAFETY: `Simd::detect` found the feature on this CPU (an engine is never moved to
             // another machine while it runs).
-            Simd::Avx512 => return unsafe { avx512(work) },
+            Simd::Avx512(_) => return unsafe { avx512(work) },
             // SAFETY: as above.
             Simd::Avx2 => return unsafe { avx2(work) },
             Simd::None => {}
@@ -2840,91 +2936,94 @@ mod tests {
     /// 3 and 9 points), BUT thresholds of both signs, an ENF input and every output kind.
     #[test]
     fn every_vector_width_gives_the_same_bits() {
-        let mut net = Network::new();
-        let (rows, cols) = (12, 40);
-        let ids: Vec<MatId> = (0..rows * cols)
-            .map(|i| {
-                let m = [1.0, 1.5, 0.5][i % 3];
-                let v0 = if i == 45 { 0.05 } else { 0.0 };
-                net.add_material(Material::Mas { m, x0: 0.0, v0 })
-            })
-            .collect();
-        let g = net.add_material(Material::Sol { x0: 0.0 });
-        let nine: Vec<(f64, f64)> = (0..9)
-            .map(|i| (i as f64 - 4.0, 0.02 * (i as f64 - 4.0)))
-            .collect();
-        let law = |i: usize| {
-            let w = 1.0 + 0.01 * (i % 5) as f64;
-            match (i / 24) % 6 {
-                0 => Interaction::Ref { k: 0.1, z: 1e-4 },
-                1 => Interaction::Ref {
-                    k: 0.1 * w,
-                    z: 1e-4,
-                },
-                2 => Interaction::Res { k: 0.08 },
-                3 => Interaction::But {
-                    k: 0.1,
-                    z: 1e-4,
-                    s: if i.is_multiple_of(2) { 1e-3 } else { -1e-3 },
-                },
-                4 => Interaction::Lnl {
-                    lk: Curve::new(&[(-0.01, -1e-3), (0.0, 0.0), (0.01, 2e-3)]).unwrap(),
-                    lz: Curve::new(&[(-1.0, -1e-4), (1.0, 1e-4)]).unwrap(),
-                },
-                _ => Interaction::Lnl {
-                    lk: Curve::new(&nine).unwrap(),
-                    lz: Curve::new(&[(-1.0, -1e-4), (1.0, 1e-4)]).unwrap(),
-                },
+        // (rows of 40 and 43 masses: every loop has a remainder, which AVX-512 computes as one
+        // masked block, for some of the rows)
+        for (rows, cols) in [(12, 40), (9, 43)] {
+            let mut net = Network::new();
+            let ids: Vec<MatId> = (0..rows * cols)
+                .map(|i| {
+                    let m = [1.0, 1.5, 0.5][i % 3];
+                    let v0 = if i == 45 { 0.05 } else { 0.0 };
+                    net.add_material(Material::Mas { m, x0: 0.0, v0 })
+                })
+                .collect();
+            let g = net.add_material(Material::Sol { x0: 0.0 });
+            let nine: Vec<(f64, f64)> = (0..9)
+                .map(|i| (i as f64 - 4.0, 0.02 * (i as f64 - 4.0)))
+                .collect();
+            let law = |i: usize| {
+                let w = 1.0 + 0.01 * (i % 5) as f64;
+                match (i / 24) % 6 {
+                    0 => Interaction::Ref { k: 0.1, z: 1e-4 },
+                    1 => Interaction::Ref {
+                        k: 0.1 * w,
+                        z: 1e-4,
+                    },
+                    2 => Interaction::Res { k: 0.08 },
+                    3 => Interaction::But {
+                        k: 0.1,
+                        z: 1e-4,
+                        s: if i.is_multiple_of(2) { 1e-3 } else { -1e-3 },
+                    },
+                    4 => Interaction::Lnl {
+                        lk: Curve::new(&[(-0.01, -1e-3), (0.0, 0.0), (0.01, 2e-3)]).unwrap(),
+                        lz: Curve::new(&[(-1.0, -1e-4), (1.0, 1e-4)]).unwrap(),
+                    },
+                    _ => Interaction::Lnl {
+                        lk: Curve::new(&nine).unwrap(),
+                        lz: Curve::new(&[(-1.0, -1e-4), (1.0, 1e-4)]).unwrap(),
+                    },
+                }
+            };
+            let mut i = 0;
+            for r in 0..rows {
+                net.add_link(law(i), g, ids[r * cols]);
+                for c in 0..cols - 1 {
+                    i += 1;
+                    net.add_link(law(i), ids[r * cols + c], ids[r * cols + c + 1]);
+                }
             }
-        };
-        let mut i = 0;
-        for r in 0..rows {
-            net.add_link(law(i), g, ids[r * cols]);
-            for c in 0..cols - 1 {
-                i += 1;
-                net.add_link(law(i), ids[r * cols + c], ids[r * cols + c + 1]);
+            for c in 0..cols {
+                for r in 0..rows - 1 {
+                    i += 1;
+                    net.add_link(law(i), ids[r * cols + c], ids[(r + 1) * cols + c]);
+                }
+                net.add_link(law(i), ids[(rows - 1) * cols + c], g);
             }
-        }
-        for c in 0..cols {
-            for r in 0..rows - 1 {
-                i += 1;
-                net.add_link(law(i), ids[r * cols + c], ids[(r + 1) * cols + c]);
+            net.add_force(ids[7], Signal::Impulse { at: 3, amp: 0.2 });
+            net.add_position_output(ids[rows * cols / 2]);
+            net.add_force_output(LinkId(5));
+            net.add_sum_output(vec![
+                (0.5, Probe::Position(ids[3])),
+                (2.0, Probe::Force(LinkId(60))),
+            ]);
+            let mut widths = vec![Simd::None];
+            #[cfg(target_arch = "x86_64")]
+            {
+                if std::is_x86_feature_detected!("avx2") {
+                    widths.push(Simd::Avx2);
+                }
+                if let Some(cpu) = Avx512::detect() {
+                    widths.push(Simd::Avx512(cpu));
+                }
             }
-            net.add_link(law(i), ids[(rows - 1) * cols + c], g);
-        }
-        net.add_force(ids[7], Signal::Impulse { at: 3, amp: 0.2 });
-        net.add_position_output(ids[rows * cols / 2]);
-        net.add_force_output(LinkId(5));
-        net.add_sum_output(vec![
-            (0.5, Probe::Position(ids[3])),
-            (2.0, Probe::Force(LinkId(60))),
-        ]);
-        let mut widths = vec![Simd::None];
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::is_x86_feature_detected!("avx2") {
-                widths.push(Simd::Avx2);
+            let render = |simd: Simd| {
+                let mut e = Engine::new(&net);
+                e.k.simd = simd;
+                let mut out = vec![0.0; 3000 * e.channels()];
+                e.process(3000, &mut out).unwrap();
+                out
+            };
+            let scalar = render(Simd::None);
+            assert!(scalar.iter().any(|v| *v != 0.0));
+            for &w in &widths[1..] {
+                let out = render(w);
+                let same = out
+                    .iter()
+                    .zip(&scalar)
+                    .all(|(a, b)| a.to_bits() == b.to_bits());
+                assert!(same, "{w:?} differs from the scalar build");
             }
-            if std::is_x86_feature_detected!("avx512f") {
-                widths.push(Simd::Avx512);
-            }
-        }
-        let render = |simd: Simd| {
-            let mut e = Engine::new(&net);
-            e.k.simd = simd;
-            let mut out = vec![0.0; 3000 * e.channels()];
-            e.process(3000, &mut out).unwrap();
-            out
-        };
-        let scalar = render(Simd::None);
-        assert!(scalar.iter().any(|v| *v != 0.0));
-        for &w in &widths[1..] {
-            let out = render(w);
-            let same = out
-                .iter()
-                .zip(&scalar)
-                .all(|(a, b)| a.to_bits() == b.to_bits());
-            assert!(same, "{w:?} differs from the scalar build");
         }
     }
 

@@ -36,6 +36,7 @@
 
 mod curve;
 mod engine;
+mod lanes;
 mod network;
 mod parallel;
 mod signal;
