@@ -3423,12 +3423,9 @@ mod tests {
         assert!(!Kernel::new(&ring).compact);
     }
 
-    /// Tiles are cut between the rows of a membrane (MAS segments shorter than a tile), hold at
-    /// most a tile each, and cover the moving materials in order; a string longer than a tile is
-    /// cut every tile.
-    #[test]
-    fn tiles_are_cut_between_rows() {
-        let (rows, cols) = (30, 70);
+    /// A membrane of masses at rest whose rows end in ground links (one ground each), without
+    /// grounds above and below.
+    fn grounded_rows(rows: usize, cols: usize) -> Network {
         let mut net = Network::new();
         let m = masses_at_rest(&mut net, rows * cols);
         let law = Interaction::Ref { k: 0.1, z: 1e-4 };
@@ -3446,6 +3443,16 @@ mod tests {
                 net.add_link(law.clone(), m[r * cols + c], m[(r + 1) * cols + c]);
             }
         }
+        net
+    }
+
+    /// Tiles are cut between the rows of a membrane (MAS segments shorter than a tile), hold at
+    /// most a tile each, and cover the moving materials in order; a string longer than a tile is
+    /// cut every tile.
+    #[test]
+    fn tiles_are_cut_between_rows() {
+        let (rows, cols) = (30, 70);
+        let net = grounded_rows(rows, cols);
         let k = Kernel::new(&net);
         let rows_of = |b: usize| b.is_multiple_of(cols);
         let bounds = k.tile_bounds(TILE);
@@ -3463,6 +3470,7 @@ mod tests {
         // a string of 2,500 masses (one segment): cut every tile
         let mut string = Network::new();
         let s = masses_at_rest(&mut string, 2500);
+        let law = Interaction::Ref { k: 0.1, z: 1e-4 };
         for w in s.windows(2) {
             string.add_link(law.clone(), w[0], w[1]);
         }
@@ -3487,23 +3495,7 @@ mod tests {
     #[test]
     fn short_runs_are_gathered_per_tile() {
         let (rows, cols) = (30, 70);
-        let mut net = Network::new();
-        let m = masses_at_rest(&mut net, rows * cols);
-        let law = Interaction::Ref { k: 0.1, z: 1e-4 };
-        for r in 0..rows {
-            let g = net.add_material(Material::Sol { x0: 0.0 });
-            net.add_link(law.clone(), g, m[r * cols]);
-            for c in 0..cols - 1 {
-                net.add_link(law.clone(), m[r * cols + c], m[r * cols + c + 1]);
-            }
-            let g = net.add_material(Material::Sol { x0: 0.0 });
-            net.add_link(law.clone(), m[r * cols + cols - 1], g);
-        }
-        for c in 0..cols {
-            for r in 0..rows - 1 {
-                net.add_link(law.clone(), m[r * cols + c], m[(r + 1) * cols + c]);
-            }
-        }
+        let net = grounded_rows(rows, cols);
         let nets = [
             net,
             irregular(3, 40),
