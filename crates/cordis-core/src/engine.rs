@@ -93,7 +93,7 @@ enum Ends {
     Step { a0: u32, sa: u32, b0: u32, sb: u32 },
     /// The links are those of storage slots `Kernel::listed[from..to]` (ascending, each within
     /// `start..end`, which is only their span): short indexed runs of one tile with the same law
-    /// and parameters, gathered into one loop (see [`Kernel::tiling`]). Only in `tile_runs`.
+    /// and parameters, gathered into one loop (see [`Kernel::gather_short`]). Only in `tile_runs`.
     Listed { from: u32, to: u32 },
 }
 
@@ -2075,14 +2075,11 @@ impl Kernel {
             return;
         };
         let (x, xp) = (cpu.load(&cur[body..]), cpu.load(&prev[body..]));
-        let mut t = [[0.0; LANES]; D];
-        for (t, s) in t.iter_mut().zip(unit_terms::<D>(sf, body..n, term)) {
-            *t = cpu.load(s);
-        }
+        // `F(n)` of each lane, term by term in edge order, as in the loop above
         let mut f = [0.0; LANES];
-        for (t, tj) in t.iter().enumerate() {
-            for (f, &tj) in f.iter_mut().zip(tj) {
-                *f = add(t, *f, tj);
+        for (j, s) in unit_terms::<D>(sf, body..n, term).iter().enumerate() {
+            for (f, t) in f.iter_mut().zip(cpu.load(s)) {
+                *f = add(j, *f, t);
             }
         }
         // (the lanes past the end compute on zeros, a division by zero too, and are not stored)
