@@ -2082,32 +2082,22 @@ impl Kernel {
                 *f = add(j, *f, t);
             }
         }
-        // (the lanes past the end compute on zeros, a division by zero too, and are not stored)
-        let mut out = [0.0; LANES];
+        // each lane's `1 / M` to multiply by, or `M` to divide by, as `mas_with` does (the lanes
+        // past the end compute on zeros, a division by zero too, and are not stored)
         let rest = r.start + body..r.end;
-        match &self.mas {
-            MasLaw::UniformInv(inv) => {
-                for (j, o) in out.iter_mut().enumerate() {
-                    *o = by_inv(x[j], xp[j], f[j], *inv);
-                }
-            }
-            MasLaw::UniformDiv(m) => {
-                for (j, o) in out.iter_mut().enumerate() {
-                    *o = by_div(x[j], xp[j], f[j], *m);
-                }
-            }
-            MasLaw::Inv(inv) => {
-                let inv = cpu.load(&inv[rest]);
-                for (j, o) in out.iter_mut().enumerate() {
-                    *o = by_inv(x[j], xp[j], f[j], inv[j]);
-                }
-            }
-            MasLaw::Div(ms) => {
-                let m = cpu.load(&ms[rest]);
-                for (j, o) in out.iter_mut().enumerate() {
-                    *o = by_div(x[j], xp[j], f[j], m[j]);
-                }
-            }
+        let (by, multiply) = match &self.mas {
+            MasLaw::UniformInv(inv) => ([*inv; LANES], true),
+            MasLaw::UniformDiv(m) => ([*m; LANES], false),
+            MasLaw::Inv(inv) => (cpu.load(&inv[rest]), true),
+            MasLaw::Div(ms) => (cpu.load(&ms[rest]), false),
+        };
+        let mut out = [0.0; LANES];
+        for (j, o) in out.iter_mut().enumerate() {
+            *o = if multiply {
+                by_inv(x[j], xp[j], f[j], by[j])
+            } else {
+                by_div(x[j], xp[j], f[j], by[j])
+            };
         }
         cpu.store(&mut next[body..], out);
     }
