@@ -992,7 +992,7 @@ impl Kernel {
     /// Gives this kernel (built without exceptions) the compact step, stored as it is or rebuilt
     /// in declaration order, if either fits it; returns whether it did.
     fn make_compact(&mut self, net: &Network) -> bool {
-        debug_assert!(self.link_fix.is_empty() && self.mas_fix.is_empty());
+        assert!(self.link_fix.is_empty() && self.mas_fix.is_empty());
         if !self.in_declaration_order() {
             // (stored in declaration order, a network whose laws alternate falls into many
             // short runs, whose set-up the compact step does not win back)
@@ -1893,12 +1893,11 @@ impl Kernel {
                 }
             }
         }
-        if let Ends::Step { .. } = run.ends {
+        // (a sink would have taken the wrong forces: a kernel whose step accumulates has no
+        // exceptions, see `Kernel::make_compact`)
+        if let (Ends::Step { .. }, false) = (run.ends, S::ACCUMULATES) {
             // the exceptions, computed above with the progression's terms, now with their ends
-            let fixes = self.fixes(&self.link_fix, run.start..run.end);
-            // (a sink took the wrong forces: only `Discard` meets exceptions, see `Kernel::new`)
-            assert!(!S::ACCUMULATES || fixes.is_empty());
-            for &l in fixes {
+            for &l in self.fixes(&self.link_fix, run.start..run.end) {
                 let l = l as usize;
                 let (a, b, i) = (self.la[l], self.lb[l], l - run.start);
                 lf[i] = force(i, st.x(a), st.xp(a), st.x(b), st.xp(b));
@@ -2891,7 +2890,8 @@ impl<'a, S: Sink> Positions<'a, S> {
 
 /// Where the link loops also hand each force `f`, with its ends `a`, `b` (storage slots).
 trait Sink {
-    /// whether `take` does anything (then the kernel has no exceptions, see `Kernel::new`)
+    /// whether `take` does anything (then the kernel has no exceptions, see
+    /// `Kernel::make_compact`, and the link loops recompute none)
     const ACCUMULATES: bool;
     fn take(&self, a: u32, b: u32, f: f64);
 }
