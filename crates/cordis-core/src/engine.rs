@@ -1232,14 +1232,13 @@ impl Kernel {
             .iter()
             .flat_map(|run| {
                 let (la, lb) = (&la[run.start..run.end], &lb[run.start..run.end]);
-                let pieces = progressions(la.len(), 2, |i, j| if j == 0 { la[i] } else { lb[i] });
-                let pieces = if bridge {
-                    let (pieces, fix) = bridged(pieces);
-                    link_fix.extend(fix.into_iter().map(|i| (run.start + i) as u32));
-                    pieces
-                } else {
-                    pieces
-                };
+                let ends = |i: usize, j: usize| if j == 0 { la[i] } else { lb[i] };
+                let pieces = stretches(
+                    la.len(),
+                    2,
+                    ends,
+                    bridge.then_some((run.start, &mut link_fix)),
+                );
                 pieces.into_iter().map(move |(r, steps)| {
                     let mut piece = run.cut(run.start + r.start, run.start + r.end);
                     if let Some(st) = steps {
@@ -1331,14 +1330,7 @@ impl Kernel {
         for (r, d) in by_degree {
             let e0 = eoff[r.start] as usize;
             let edge = |i: usize, j: usize| eidx[e0 + i * d + j];
-            let pieces = progressions(r.len(), d, edge);
-            let pieces = if bridge {
-                let (pieces, fix) = bridged(pieces);
-                mas_fix.extend(fix.into_iter().map(|i| (r.start + i) as u32));
-                pieces
-            } else {
-                pieces
-            };
+            let pieces = stretches(r.len(), d, edge, bridge.then_some((r.start, &mut mas_fix)));
             for (p, steps) in pieces {
                 let mats = r.start + p.start..r.start + p.end;
                 let seg_streams = steps.map(|st| {
@@ -2563,6 +2555,24 @@ fn progressions(
         }
     }
     out
+}
+
+/// [`progressions`], joined across exceptions ([`bridged`]) when `fix` is given: `(at, list)`,
+/// the exceptions are then appended to `list`, offset by `at`.
+#[allow(clippy::type_complexity)]
+fn stretches(
+    len: usize,
+    width: usize,
+    get: impl Fn(usize, usize) -> u32,
+    fix: Option<(usize, &mut Vec<u32>)>,
+) -> Vec<(Range<usize>, Option<Vec<(u32, u32)>>)> {
+    let pieces = progressions(len, width, get);
+    let Some((at, list)) = fix else {
+        return pieces;
+    };
+    let (pieces, exceptions) = bridged(pieces);
+    list.extend(exceptions.into_iter().map(|i| (at + i) as u32));
+    pieces
 }
 
 /// Most items between two progressions that continue each other that are recomputed one at a
