@@ -1112,14 +1112,6 @@ impl Kernel {
             _ => MasLaw::Div(mas_m),
         };
 
-        let slot_of = |id: MatId| -> u32 {
-            assert!(
-                id.index() < nm,
-                "link or input refers to material #{} of {nm}",
-                id.0
-            );
-            slot[id.index()]
-        };
         let nl = net.links.len();
         let lslot = if declaration_order {
             (0..net.links.len() as u32).collect()
@@ -1130,6 +1122,44 @@ impl Kernel {
         for (d, &l) in lslot.iter().enumerate() {
             by_slot[l as usize] = d;
         }
+        if bridge {
+            // SOLs in the order their links are stored: the grounds of a membrane's top row are
+            // then consecutive, as the masses they hold, and their links a unit-step loop
+            let mut first = vec![usize::MAX; nm - n_mce];
+            for (l, &d) in by_slot.iter().enumerate() {
+                let link = &net.links[d];
+                for id in [link.a, link.b] {
+                    // (a foreign id is refused below)
+                    if let Some(&s) = slot.get(id.index()).filter(|&&s| s as usize >= n_mce) {
+                        let f = &mut first[s as usize - n_mce];
+                        *f = (*f).min(l);
+                    }
+                }
+            }
+            let mut by_use: Vec<usize> = (0..nm - n_mce).collect();
+            by_use.sort_by_key(|&i| first[i]); // (stable: unused SOLs keep their order)
+            let mut renumbered = vec![0u32; nm - n_mce];
+            for (i, &old) in by_use.iter().enumerate() {
+                renumbered[old] = (n_mce + i) as u32;
+            }
+            for s in slot.iter_mut().filter(|s| **s as usize >= n_mce) {
+                *s = renumbered[*s as usize - n_mce];
+            }
+            for init in [&mut x_init, &mut xp_init] {
+                let old = init[n_mce..].to_vec();
+                for (i, v) in old.into_iter().enumerate() {
+                    init[renumbered[i] as usize] = v;
+                }
+            }
+        }
+        let slot_of = |id: MatId| -> u32 {
+            assert!(
+                id.index() < nm,
+                "link or input refers to material #{} of {nm}",
+                id.0
+            );
+            slot[id.index()]
+        };
         let (mut la, mut lb) = (Vec::with_capacity(nl), Vec::with_capacity(nl));
         let (mut lk, mut lz, mut ls) = (vec![0.0; nl], vec![0.0; nl], vec![0.0; nl]);
         let mut curves = vec![(Curve::zero(), Curve::zero()); nl];
@@ -3208,7 +3238,7 @@ mod tests {
     /// A membrane with one ground per missing neighbour (as the benchmark's) and a string between
     /// two grounds: the ground links are placed where the border masses' sums continue their
     /// progressions, so every mass of a membrane row, and every mass of the string, sums unit-step
-    /// streams (no mass read through an index list).
+    /// streams (no mass read through an index list); with exceptions, the membrane is one loop.
     #[test]
     fn ground_links_join_the_progressions_of_their_row() {
         let (rows, cols) = (6, 40);
@@ -3262,6 +3292,21 @@ mod tests {
         assert!(streams.iter().all(|&(_, step)| step == 1), "{streams:?}");
         let firsts: Vec<u32> = (1..rows).map(|r| (r * cols) as u32).collect();
         assert_eq!(k.mas_fix, firsts);
+        // every link in a unit-step loop (the grounds of the top and bottom rows too: the SOLs
+        // are stored in the order of their links), but the rows' left grounds and the last
+        // row's right one
+        let runs = &k.whole.runs;
+        assert!(
+            (runs.iter()).all(|r| match r.ends {
+                Ends::Step { sa, sb, .. } => (sa, sb) == (1, 1),
+                _ => r.ends == Ends::Indexed,
+            }),
+            "{runs:?}"
+        );
+        let indexed = (runs.iter().filter(|r| r.ends == Ends::Indexed))
+            .map(|r| r.end - r.start)
+            .sum::<usize>();
+        assert_eq!(indexed, rows + 1, "{runs:?}");
         assert_eq!(k.link_fix.len(), rows - 1);
         for &l in &k.link_fix {
             let (a, b) = (k.la[l as usize], k.lb[l as usize]);
