@@ -314,9 +314,9 @@ struct Tile {
 
 /// Materials per tile: their positions and their links' forces (about 320 kB) fit in the L2
 /// cache. With a membrane's rows one loop (see [`bridged`]), longer loops pay more than the L1
-/// cache: tiles of 1,024 materials (which fit in L1) ran the 100x100 membrane at 0.82-0.88x10^9
-/// mass-steps/s, of 4,096 to 16,384 at 0.89-0.96x10^9, and the 316x316 one at 0.74-0.75x10^9,
-/// then 0.83-0.89x10^9 (docs/BENCHMARKS.md, fifth session).
+/// cache: tiles of 1,024 materials (which fit in L1) ran the 100x100 membrane at 0.76-0.88x10^9
+/// mass-steps/s, of 4,096 to 16,384 at 0.88-0.98x10^9, and the 316x316 one at 0.74-0.75x10^9,
+/// then 0.83-0.90x10^9 (docs/BENCHMARKS.md, fifth session).
 const TILE: usize = 8192;
 
 /// Materials within this many storage slots of each other are neighbours in memory: a link
