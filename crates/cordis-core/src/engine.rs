@@ -1038,7 +1038,9 @@ impl Kernel {
     }
 
     /// [`Kernel::new`] with the links stored in [`link_order`], or in declaration order when
-    /// `declaration_order`. Stepping is not chosen yet (`compact` is false).
+    /// `declaration_order`; with `bridge`, progressions joined across exceptions ([`bridged`]),
+    /// each ground link placed only where no other is ([`placed_in_bands`]) and the SOLs stored
+    /// in the order of their links. Stepping is not chosen yet (`compact` is false).
     #[track_caller]
     fn build(net: &Network, declaration_order: bool, bridge: bool) -> Kernel {
         let nm = net.materials.len();
