@@ -50,6 +50,8 @@ use crate::lanes::{Avx512, LANES};
 use crate::parallel::{Poisoned, Pool, SharedBuf, SpinBarrier, Task};
 use crate::{Curve, Interaction, LinkId, MatId, Material, Network, Output, Probe, Signal};
 
+mod pull;
+
 /// The law of a run of consecutive links (in declaration order) that share it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Law {
@@ -411,6 +413,8 @@ struct Kernel {
     /// then recomputes them from `la`, `lb` or `eidx` (see [`Kernel::fixes`]).
     link_fix: Vec<u32>,
     mas_fix: Vec<u32>,
+    /// the pull step, when the network takes it (see [`Kernel::new`] and `engine/pull.rs`)
+    pull: Option<Box<pull::Pull>>,
 }
 
 /// The state that stepping changes.
@@ -429,6 +433,9 @@ struct State {
     blown: Option<BlowUp>,
     /// `F(n)` of each material while a compact step accumulates it (empty otherwise)
     acc: Vec<f64>,
+    /// `(x, x - x')` of each material, for the pull step: one buffer for step `n`, one for `n + 1`
+    /// (empty without a pull step)
+    pairs: [Vec<[f64; 2]>; 2],
 }
 
 /// The state right after step `n`, as an observer sees it (see [`Engine::process_observed`]).
@@ -582,6 +589,7 @@ impl Engine {
             snap: [vec![0.0; k.n_mce], vec![0.0; k.n_mce]],
             blown: None,
             acc: vec![0.0; if k.compact { k.nm } else { 0 }],
+            pairs: [(); 2].map(|()| vec![[0.0; 2]; if k.pull.is_some() { nm } else { 0 }]),
         };
         st.reset(&k);
         Engine {
@@ -705,6 +713,8 @@ impl Engine {
     pub fn process(&mut self, frames: usize, out: &mut [f64]) -> Result<(), BlowUp> {
         if self.is_parallel() && frames > 0 && self.st.blown.is_none() {
             self.process_parallel(frames, out)
+        } else if self.k.pull.is_some() && frames > 0 && self.st.blown.is_none() {
+            self.process_pull(frames, out)
         } else {
             self.process_observed(frames, out, &mut |_: &StepView<'_>| {})
         }
@@ -803,6 +813,31 @@ impl Engine {
         }
         self.st.set_step(n0 + frames as u64);
         self.check_block(n0, frames, out)
+    }
+
+    /// [`Engine::process`] with the pull step.
+    #[track_caller]
+    fn process_pull(&mut self, frames: usize, out: &mut [f64]) -> Result<(), BlowUp> {
+        let Some(pull) = self.k.pull.as_deref() else {
+            unreachable!("process takes the pull step only when there is one")
+        };
+        assert_eq!(
+            out.len(),
+            frames * self.k.channels.len(),
+            "output buffer must hold frames * channels values"
+        );
+        self.st.take_snapshot(self.k.n_mce);
+        let n0 = self.st.n;
+        pull.block(&self.k, &mut self.st, frames, out);
+        self.check_block(n0, frames, out)?;
+        // `link_force` reads `f(n-1)`, which the pull step keeps nowhere: from `x(n-1)`, `x(n-2)`
+        let r = Roles::at(self.st.c);
+        let state = Positions::new(&self.k, &self.st.pos[r.prev], &self.st.pos[r.next]);
+        for run in &self.k.whole.runs {
+            self.k
+                .run_links(run, &state, &mut self.st.sf[run.start..run.end]);
+        }
+        Ok(())
     }
 
     /// After a block from step `n0`: if a position is not finite, replays the block from the
@@ -967,8 +1002,22 @@ impl Kernel {
     /// no exceptions; the others the gather step, with the links in the storage order of
     /// [`link_order`] and progressions joined across exceptions ([`bridged`]). Both give the
     /// reference's bits.
+    /// A network of RES, FRO and REF links without locality (one that takes the compact step,
+    /// whose links are scattered, or whose links and MAS are mostly read through index lists)
+    /// also gets the pull step (`engine/pull.rs`) when the CPU has AVX-512: [`Engine::process`]
+    /// then takes it on one thread.
     #[track_caller]
     fn new(net: &Network) -> Kernel {
+        let mut k = Kernel::choose(net);
+        if k.compact || k.scattered || k.mostly_indexed() {
+            k.pull = pull::Pull::new(&k).map(Box::new);
+        }
+        k
+    }
+
+    /// [`Kernel::new`] without the pull step.
+    #[track_caller]
+    fn choose(net: &Network) -> Kernel {
         let k = Kernel::build(net, false, true);
         if k.n_mce > COMPACT_MAX || !(k.mostly_indexed() || k.n_mce <= TINY) {
             return k;
@@ -1485,6 +1534,7 @@ impl Kernel {
             enf_slot: enf_slot.iter().map(|&s| s as u32).collect(),
             link_fix,
             mas_fix,
+            pull: None,
         };
         // (a link to a SOL reads a position nobody writes; the others are local when their ends
         // are within [`NEAR`] slots of each other in storage)
@@ -3614,6 +3664,150 @@ mod tests {
         }
         // (both ways to a compact kernel are taken)
         assert!(rebuilt > 0 && rebuilt < count + 2, "{rebuilt} rebuilt");
+    }
+
+    /// A seeded network of springs and dampers without locality (the pull step's kind): `n` MAS
+    /// of inertias 1, 0.5 and 1.5, a CEL, an ENX and a SOL, every MAS tied to two others drawn
+    /// at random (REF, RES, FRO in turn) and damped towards the SOL, ENF inputs, and a SOX and
+    /// a SOF. `law` replaces the law of link 5 (to make a network the pull step refuses).
+    fn springs(seed: u64, n: usize, law: Option<Interaction>) -> Network {
+        let mut state = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+        let mut draw = |below: usize| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 33) % below as u64) as usize
+        };
+        let mut net = Network::new();
+        let mut ids: Vec<MatId> = (0..n)
+            .map(|i| {
+                let v0 = if i % 7 == 3 { 0.01 } else { 0.0 };
+                let m = [1.0, 0.5, 1.5][i % 3];
+                net.add_material(Material::Mas { m, x0: 0.0, v0 })
+            })
+            .collect();
+        ids.push(net.add_material(Material::Cel {
+            m: 2.0,
+            k: 0.05,
+            z: 1e-3,
+            x0: 0.01,
+            v0: 0.0,
+            r: 0.0,
+        }));
+        let hand = net.add_material(Material::Enx {
+            signal: Signal::Sine {
+                freq: 0.001,
+                amp: 0.01,
+                phase: 0.0,
+            },
+        });
+        let ground = net.add_material(Material::Sol { x0: 0.0 });
+        let total = ids.len();
+        for i in 0..2 * total {
+            let other = ids[(i % total + 1 + draw(total - 1)) % total];
+            let law = match i % 3 {
+                0 => Interaction::Ref { k: 0.05, z: 1e-3 },
+                1 => Interaction::Res { k: 0.03 },
+                _ => Interaction::Fro { z: 2e-3 },
+            };
+            net.add_link(law, ids[i % total], other);
+        }
+        for &m in &ids {
+            net.add_link(Interaction::Fro { z: 1e-4 }, m, ground);
+        }
+        net.add_link(Interaction::Ref { k: 0.02, z: 0.0 }, hand, ids[1]);
+        if let Some(law) = law {
+            net.links[5].law = law;
+        }
+        net.add_force(ids[2], Signal::Impulse { at: 5, amp: 0.05 });
+        net.add_force(ids[n], Signal::Impulse { at: 9, amp: -0.02 });
+        net.add_position_output(ids[n / 2]);
+        net.add_force_output(LinkId(3));
+        net
+    }
+
+    /// Networks of springs and dampers take the pull step on an AVX-512 CPU (and only there, and
+    /// only when every link is a RES, FRO or REF), and it gives the bits of the compact or gather
+    /// step at every step: positions, outputs, and the link forces `link_force` reads after each block,
+    /// whether `process` and `process_observed` take turns on one engine or not.
+    #[test]
+    fn the_pull_step_gives_the_other_steps_bits() {
+        let avx512 = Avx512::detect().is_some();
+        let but = Interaction::But {
+            k: 0.01,
+            z: 0.0,
+            s: 0.0,
+        };
+        assert!(Engine::new(&springs(1, 40, Some(but))).k.pull.is_none());
+        assert!(Engine::new(&springs(1, 8, None)).k.pull.is_none()); // (fewer than PULL_MIN MAS)
+        for (seed, n) in [(1, 16), (2, 40), (3, 123), (4, 500)] {
+            let net = springs(seed, n, None);
+            let mut pulled = Engine::new(&net);
+            assert_eq!(pulled.k.pull.is_some(), avx512, "network {seed}");
+            let mut compact = pulled.clone();
+            let mut turns = pulled.clone();
+            let ch = pulled.channels();
+            let mut moved = false;
+            for (i, block) in [1, 7, 300, 64, 1, 1024].into_iter().enumerate() {
+                let mut a = vec![0.0; block * ch];
+                let mut b = vec![0.0; block * ch];
+                let mut c = vec![0.0; block * ch];
+                assert!(pulled.process(block, &mut a).is_ok());
+                assert!(compact.process_observed(block, &mut b, &mut |_| {}).is_ok());
+                let turn = if i % 2 == 0 {
+                    turns.process(block, &mut c)
+                } else {
+                    turns.process_observed(block, &mut c, &mut |_| {})
+                };
+                assert!(turn.is_ok());
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&a), bits(&b), "network {seed}, block {i}");
+                assert_eq!(
+                    bits(&c),
+                    bits(&b),
+                    "network {seed}, block {i}, taking turns"
+                );
+                for e in [&pulled, &turns] {
+                    for m in (0..net.materials.len() as u32).map(MatId) {
+                        assert_eq!(e.position(m).to_bits(), compact.position(m).to_bits());
+                        assert_eq!(
+                            e.previous_position(m).to_bits(),
+                            compact.previous_position(m).to_bits()
+                        );
+                    }
+                    for l in (0..net.links.len() as u32).map(LinkId) {
+                        assert_eq!(e.link_force(l).to_bits(), compact.link_force(l).to_bits());
+                    }
+                }
+                moved |= a.iter().any(|&v| v != a[0]);
+            }
+            assert!(moved);
+        }
+    }
+
+    /// A blow-up in the pull step is reported at the step and module of the other steps.
+    #[test]
+    fn a_blow_up_in_the_pull_step_names_the_same_step_and_module() {
+        let mut net = springs(7, 60, None);
+        for link in net.links.iter_mut().skip(40).take(3) {
+            link.law = Interaction::Ref { k: 3.5, z: 0.0 };
+        }
+        let mut pulled = Engine::new(&net);
+        let mut compact = pulled.clone();
+        let ch = pulled.channels();
+        let (mut a, mut b) = (vec![0.0; 512 * ch], vec![0.0; 512 * ch]);
+        let mut blown = None;
+        for _ in 0..200 {
+            let x = pulled.process(512, &mut a);
+            let y = compact.process_observed(512, &mut b, &mut |_| {});
+            assert_eq!(x, y);
+            assert!(a.iter().zip(&b).all(|(p, q)| p.to_bits() == q.to_bits()));
+            if let Err(e) = x {
+                blown = Some(e);
+                break;
+            }
+        }
+        assert!(blown.is_some(), "the network did not blow up");
     }
 
     /// A `rows` x `cols` membrane as the benchmark's, with one SOL per border link, masses of

@@ -335,3 +335,31 @@ fn sticking_springs_and_small_curves_match_the_reference() {
     .unwrap();
     assert!(changes >= 2, "the sticking springs never caught and let go");
 }
+
+/// Networks of springs and dampers without locality (on an AVX-512 CPU they take the pull step,
+/// where each MAS computes its own links' forces: see engine/pull.rs) equal the reference at
+/// every step, in every position, link force and output, for each way of applying inertias, with
+/// uniform and mixed links, partial groups of eight and blocks of any size.
+#[test]
+fn spring_networks_equal_the_reference() {
+    for (seed, n) in [(1, 16), (2, 17), (3, 100), (4, 333)] {
+        for inertia in 0..4 {
+            for uniform in [true, false] {
+                let net = spring_network(seed, n, 4, inertia, uniform);
+                let steps = 1500;
+                let expected = reference(&net, steps);
+                for block in [1, 7, 1024] {
+                    let got = render(&net, steps, block);
+                    assert_eq!(
+                        first_bit_difference(&got, &expected),
+                        None,
+                        "seed {seed}, {n} MAS, inertia {inertia}, uniform {uniform}, block {block}"
+                    );
+                }
+                let ch = net.outputs.len();
+                let moved = |c: usize| (0..steps).any(|s| expected[s * ch + c] != expected[c]);
+                assert!((0..ch).filter(|&c| moved(c)).count() > ch / 2);
+            }
+        }
+    }
+}

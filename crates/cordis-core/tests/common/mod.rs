@@ -301,3 +301,108 @@ pub fn first_bit_difference(a: &[f64], b: &[f64]) -> Option<usize> {
         .zip(b)
         .position(|(x, y)| x.to_bits() != y.to_bits())
 }
+
+/// A seeded network of springs and dampers only (RES, FRO, REF: the pull step's kind), without
+/// locality: `n` MAS each tied to about `links_per_mass` others drawn at random, two CEL, two
+/// SOL, an ENX, a link tying a MAS to itself and one between the two SOL, ENF inputs (two on one
+/// MAS), a SOX on every material, a SOF on every link and a sum output. `inertia`: 0 every MAS
+/// of inertia 1, 1 every MAS 1.5, 2 powers of two (0.5 to 4), 3 any. `uniform`: every link a REF
+/// with the same K and Z (else the three laws with drawn parameters).
+pub fn spring_network(
+    seed: u64,
+    n: usize,
+    links_per_mass: usize,
+    inertia: u8,
+    uniform: bool,
+) -> Network {
+    let mut rng = Lcg(seed);
+    let mut net = Network::new();
+    let mut ids: Vec<_> = (0..n)
+        .map(|i| {
+            let m = match inertia {
+                0 => 1.0,
+                1 => 1.5,
+                2 => [0.5, 1.0, 2.0, 4.0][rng.below(4)],
+                _ => 0.5 + rng.next_f64(),
+            };
+            let v0 = if i % 5 == 1 {
+                0.01 * (rng.next_f64() - 0.5)
+            } else {
+                0.0
+            };
+            net.add_material(Material::Mas {
+                m,
+                x0: 0.01 * (rng.next_f64() - 0.5),
+                v0,
+            })
+        })
+        .collect();
+    for r in [0.0, 0.02] {
+        ids.push(net.add_material(Material::Cel {
+            m: 2.0,
+            k: 0.05,
+            z: 1e-3,
+            x0: 0.01,
+            v0: 0.0,
+            r,
+        }));
+    }
+    let hand = net.add_material(Material::Enx {
+        signal: Signal::Sine {
+            freq: 30.0 / 44100.0,
+            amp: 0.02,
+            phase: 0.3,
+        },
+    });
+    let grounds = [0.0, 0.5].map(|x0| net.add_material(Material::Sol { x0 }));
+    let total = ids.len();
+    for i in 0..total * links_per_mass / 2 {
+        let a = ids[i % total];
+        let b = ids[(i % total + 1 + rng.below(total - 1)) % total];
+        let (k, z) = (
+            0.05 * rng.next_f64() / links_per_mass as f64,
+            1e-3 * rng.next_f64(),
+        );
+        let law = match (uniform, rng.below(3)) {
+            (true, _) => Interaction::Ref {
+                k: 0.1 / links_per_mass as f64,
+                z: 1e-4,
+            },
+            (false, 0) => Interaction::Res { k },
+            (false, 1) => Interaction::Fro { z },
+            (false, _) => Interaction::Ref { k, z },
+        };
+        net.add_link(law, a, b);
+    }
+    let law = |k: f64, z: f64| {
+        if uniform {
+            Interaction::Ref {
+                k: 0.1 / links_per_mass as f64,
+                z: 1e-4,
+            }
+        } else {
+            Interaction::Ref { k, z }
+        }
+    };
+    net.add_link(law(0.01, 1e-4), grounds[0], ids[0]);
+    net.add_link(law(0.02, 0.0), hand, ids[1]);
+    net.add_link(law(0.03, 1e-3), ids[2], ids[2]);
+    net.add_link(law(0.04, 1e-3), grounds[0], grounds[1]);
+    net.add_link(law(0.01, 1e-4), ids[n - 1], grounds[1]);
+    net.add_force(ids[2], Signal::Impulse { at: 5, amp: 0.05 });
+    net.add_force(ids[2], Signal::Noise { seed, amp: 1e-4 });
+    net.add_force(ids[n - 1], Signal::Impulse { at: 9, amp: -0.02 });
+    net.add_force(ids[n], Signal::Impulse { at: 3, amp: 0.01 }); // a CEL
+    net.add_force(grounds[1], Signal::Impulse { at: 1, amp: 1.0 }); // acts on nothing
+    for m in 0..net.materials.len() {
+        net.add_position_output(cordis_core::MatId(m as u32));
+    }
+    for l in 0..net.links.len() {
+        net.add_force_output(cordis_core::LinkId(l as u32));
+    }
+    net.add_sum_output(vec![
+        (0.5, Probe::Position(ids[1])),
+        (-2.0, Probe::Force(cordis_core::LinkId(3))),
+    ]);
+    net
+}

@@ -1,0 +1,488 @@
+//! The pull step: each MAS computes the forces of its own links, eight MAS at a time.
+//!
+//! A network without locality (a random network, an irregular instrument of springs and
+//! dampers) has no progressions for the vector loops: the gather and the compact step read
+//! every link's ends through index lists, one scalar at a time, and scatter or gather its force
+//! through another. The pull step drops the force buffer instead. Eight MAS of one *group*
+//! (consecutive storage slots; storage orders the MAS by degree, so a group's MAS have about as
+//! many links) sum their forces side by side: term `r` of every lane is that MAS's `r`-th link
+//! in FORMALISM.md's order, computed from the MAS's own side,
+//!
+//! `g = K (x_i - x_j) + Z (v_i - v_j)`, with `v = x(n) - x(n-1)`, and `F = F - g`,
+//!
+//! where `j` is the link's other end, whose `x(n)` and `v(n)` sit side by side in a *pair*
+//! buffer, so that one 16-byte load fetches both from one cache line. Each link is computed
+//! twice (once from each end), and no force is stored or read back.
+//!
+//! **Why the bits are the reference's.** FORMALISM.md sums `F(n)` from `+0.0`, adding `-f` for
+//! every link where the material is end 1 and `+f` where it is end 2, in declaration order, then
+//! the ENF inputs. Where the MAS is end 1, `g` is the reference's `f`, operand for operand
+//! (`v_i - v_j` is `(x1 - x1') - (x2 - x2')`, whether `v` is computed once per material or once
+//! per link), so `F - g` is `F + (-f)`. Where it is end 2, `g` is `f` with every difference
+//! reversed: IEEE subtraction rounds `a - b` and `b - a` to values of opposite sign and equal
+//! magnitude, products and sums of negated operands are the negated products and sums, so `g =
+//! -f` and `F - g = F + f`; only a zero may come out as `+0.0` on one side and `-0.0` on the
+//! other, and adding a zero of either sign to a sum started at `+0.0` gives the same sum (a sum
+//! started at `+0.0` is never `-0.0`). A RES (FRO) term has its damper (spring) product masked to
+//! `+0.0` (`_mm512_maskz_mul_pd`): the same sum again, and no `0 x inf` where the reference has no
+//! such product. Padding terms (lanes with fewer links than the group's most) are fully masked:
+//! `F - (+0.0) = F`. So every `F(n)`, then every `x(n+1)` (the update's expressions as in
+//! `engine.rs`), has the reference's bits; `tests/engine.rs` checks them step by step.
+//!
+//! Only RES, FRO and REF are pulled (their force is odd in the ends' order); a network with a
+//! BUT or an LNL keeps the other steps. The loads and shuffles are AVX-512 (the CPU's proof is an
+//! [`Avx512`] token); without it the network keeps the compact or gather step.
+//!
+//! CEL (few in practice) pull their terms one at a time with the same expressions; ENX read
+//! their signal; SOL never change. The pair buffers are rebuilt from the positions at the start
+//! of every block, so the pull step and the other steps can take turns on one state.
+
+#[cfg(target_arch = "x86_64")]
+use std::arch::x86_64::*;
+
+use std::ops::Range;
+
+use super::{Channel, Ends, Kernel, Law, MasLaw, Positions, Roles, Run, State, Term, NEG};
+use crate::lanes::Avx512;
+
+/// MAS per group: the lanes of one AVX-512 vector.
+const LANES: usize = 8;
+
+/// Fewest MAS for the pull step (below, one group would hold every MAS, and the compact step is
+/// as fast).
+pub(super) const PULL_MIN: usize = 2 * LANES;
+
+/// Term `r` of the eight lanes of a group.
+#[derive(Clone, Copy, Debug)]
+struct Row {
+    /// Where the other end's pair is: its byte offset in a pair buffer, `16 s` for storage slot
+    /// `s < nm` (checked in `Pull::new`). A padding term names the lane's own MAS, or slot 0.
+    at: [u32; LANES],
+    /// The lanes whose term has a spring (`K d`), a damper (`Z v`).
+    k: u8,
+    z: u8,
+}
+
+/// A link term of a CEL.
+#[derive(Clone, Copy, Debug)]
+enum CelTerm {
+    /// `g` from the CEL's side: the other end (storage slot), the law, `K`, `Z`
+    Link(u32, Law, f64, f64),
+    /// ENF input `i` (its sample is added)
+    Input(u32),
+}
+
+/// The pull step of a network of RES, FRO and REF links (see the module documentation).
+#[derive(Clone, Debug)]
+pub(super) struct Pull {
+    cpu: Avx512,
+    /// Group `g` is MAS `LANES g..` (storage slots; the last group may be partial); its terms
+    /// are `rows[bounds[g]..bounds[g + 1]]`.
+    bounds: Vec<u32>,
+    rows: Vec<Row>,
+    /// `K` and `Z` of each row's lanes, or a single row when every term has the same.
+    params: Vec<[[f64; LANES]; 2]>,
+    /// ENF inputs of group `g`: `enf[enf_bounds[g]..enf_bounds[g + 1]]`, `(lane, input)` in the
+    /// order they are summed.
+    enf_bounds: Vec<u32>,
+    enf: Vec<(u8, u32)>,
+    /// Terms of CEL `c` (storage slot `n_mas + c`): `cel_terms[cel_off[c]..cel_off[c + 1]]`.
+    cel_off: Vec<u32>,
+    cel_terms: Vec<CelTerm>,
+    /// The links the outputs read, each a run of its own: computed before each step's outputs.
+    recorded: Vec<Run>,
+}
+
+impl Pull {
+    /// The pull step of `k`, if it can take one: the CPU has AVX-512, every link is a RES, FRO or
+    /// REF, and there are at least [`PULL_MIN`] MAS.
+    pub(super) fn new(k: &Kernel) -> Option<Pull> {
+        let cpu = k.tails()?;
+        if k.n_mas < PULL_MIN || k.nm >= 1 << 28 {
+            return None; // (`Row::at` is a 32-bit byte offset)
+        }
+        let mut law = vec![Law::Ref; k.nl];
+        for run in &k.whole.runs {
+            if !matches!(run.law, Law::Res | Law::Fro | Law::Ref) {
+                return None;
+            }
+            law[run.start..run.end].fill(run.law);
+        }
+        let has_k = |l: Law| l != Law::Fro;
+        let has_z = |l: Law| l != Law::Res;
+        // The terms of mobile material `s`, in summing order: `Ok((other end, link))`, then
+        // `Err(input)`.
+        let terms = |s: usize| {
+            let edges = &k.eidx[k.eoff[s] as usize..k.eoff[s + 1] as usize];
+            edges.iter().map(move |&e| {
+                let l = (e & !NEG) as usize;
+                if l >= k.nl {
+                    Err((l - k.nl) as u32)
+                } else if e & NEG != 0 {
+                    Ok((k.lb[l], l)) // the material is end 1
+                } else {
+                    Ok((k.la[l], l))
+                }
+            })
+        };
+        let kz = |l: usize| (k.lk[l].to_bits(), k.lz[l].to_bits());
+        let uniform = (0..k.nl).all(|l| kz(l) == kz(0));
+
+        let mut p = Pull {
+            cpu,
+            bounds: vec![0],
+            rows: Vec::new(),
+            params: Vec::new(),
+            enf_bounds: vec![0],
+            enf: Vec::new(),
+            cel_off: vec![0],
+            cel_terms: Vec::new(),
+            recorded: Vec::new(),
+        };
+        if uniform && k.nl > 0 {
+            p.params.push([[k.lk[0]; LANES], [k.lz[0]; LANES]]);
+        }
+        for g in 0..k.n_mas.div_ceil(LANES) {
+            let lanes = LANES * g..(LANES * (g + 1)).min(k.n_mas);
+            let links: Vec<Vec<(u32, usize)>> = lanes
+                .clone()
+                .map(|s| terms(s).filter_map(Result::ok).collect())
+                .collect();
+            let depth = links.iter().map(Vec::len).max().unwrap_or(0);
+            for r in 0..depth {
+                let mut row = Row {
+                    at: [0; LANES],
+                    k: 0,
+                    z: 0,
+                };
+                let mut params = [[0.0; LANES]; 2];
+                for (i, s) in lanes.clone().enumerate() {
+                    let mut other = s as u32; // padding: the lane's own MAS, masked off
+                    if let Some(&(o, l)) = links[i].get(r) {
+                        other = o;
+                        row.k |= u8::from(has_k(law[l])) << i;
+                        row.z |= u8::from(has_z(law[l])) << i;
+                        params[0][i] = k.lk[l];
+                        params[1][i] = k.lz[l];
+                    }
+                    assert!((other as usize) < k.nm);
+                    row.at[i] = 16 * other;
+                }
+                p.rows.push(row);
+                if !uniform {
+                    p.params.push(params);
+                }
+            }
+            p.bounds.push(p.rows.len() as u32);
+            for (i, s) in lanes.enumerate() {
+                p.enf
+                    .extend(terms(s).filter_map(Result::err).map(|e| (i as u8, e)));
+            }
+            p.enf_bounds.push(p.enf.len() as u32);
+        }
+        for s in k.n_mas..k.n_mc {
+            p.cel_terms.extend(terms(s).map(|t| match t {
+                Ok((other, l)) => CelTerm::Link(other, law[l], k.lk[l], k.lz[l]),
+                Err(e) => CelTerm::Input(e),
+            }));
+            p.cel_off.push(p.cel_terms.len() as u32);
+        }
+        let mut recorded: Vec<usize> = Vec::new();
+        for c in &k.channels {
+            match *c {
+                Channel::Force(l) => recorded.push(l as usize),
+                Channel::Sum(a, b) => {
+                    recorded.extend(k.sum_terms[a..b].iter().filter_map(|(_, t)| match *t {
+                        Term::Force(l) => Some(l as usize),
+                        Term::Position(_) => None,
+                    }))
+                }
+                Channel::Position(_) => {}
+            }
+        }
+        recorded.sort_unstable();
+        recorded.dedup();
+        for l in recorded {
+            let run = (k.whole.runs.iter()).find(|r| (r.start..r.end).contains(&l))?;
+            // (read through the index lists: a progression's cut could land on an exception)
+            p.recorded.push(Run {
+                ends: Ends::Indexed,
+                ..run.cut(l, l + 1)
+            });
+        }
+        assert!(p.cel_terms.iter().all(|t| match *t {
+            CelTerm::Link(j, ..) => (j as usize) < k.nm,
+            CelTerm::Input(i) => (i as usize) < k.enf.len(),
+        }));
+        assert!(p.enf.iter().all(|&(_, i)| (i as usize) < k.enf.len()));
+        Some(p)
+    }
+
+    /// Steps `frames` times from `st`, writing the outputs into `out` (see
+    /// [`super::Engine::process`]); `pairs` holds two buffers of one pair per material.
+    pub(super) fn block(&self, k: &Kernel, st: &mut State, frames: usize, out: &mut [f64]) {
+        debug_assert_eq!(Some(self.cpu), Avx512::detect());
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: `self.cpu` exists, so the CPU has AVX-512F (see `Avx512::detect`).
+            unsafe { self.block_avx512(k, st, frames, out) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = (k, st, frames, out);
+            unreachable!("a pull step needs an Avx512 token, which exists only on x86-64");
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn block_avx512(&self, k: &Kernel, st: &mut State, frames: usize, out: &mut [f64]) {
+        let ch = k.channels.len();
+        let nm = k.nm;
+        let State {
+            n,
+            c,
+            pos,
+            sf,
+            pairs,
+            ..
+        } = st;
+        let [p0, p1] = pairs;
+        assert!(p0.len() == nm && p1.len() == nm && sf.len() == k.sf_len);
+        {
+            let r = Roles::at(*c);
+            let (x, xp) = (&pos[r.cur], &pos[r.prev]);
+            for ((p, &x), &xp) in p0.iter_mut().zip(x).zip(xp) {
+                *p = [x, x - xp];
+            }
+            // (SOL pairs never change: both buffers hold them)
+            p1[k.n_mce..].copy_from_slice(&p0[k.n_mce..]);
+        }
+        let mut flip = false;
+        for frame in 0..frames {
+            let roles = Roles::at(*c);
+            let (cur, prev, next) = roles.split(pos);
+            let (pc, pn) = if flip {
+                (&p1[..], &mut p0[..])
+            } else {
+                (&p0[..], &mut p1[..])
+            };
+            let state = Positions::new(k, cur, prev);
+            for run in &self.recorded {
+                k.run_links(run, &state, &mut sf[run.start..run.end]);
+            }
+            k.record(cur, &sf[..k.nl], &mut out[frame * ch..(frame + 1) * ch]);
+            self.step(k, *n, cur, prev, next, pc, pn);
+            *n += 1;
+            *c = roles.next;
+            flip = !flip;
+        }
+    }
+
+    /// Step `n`: `x(n+1)` of every moving material into `next`, and its pair into `pn`.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    #[allow(clippy::too_many_arguments)] // the step's buffers
+    fn step(
+        &self,
+        k: &Kernel,
+        n: u64,
+        cur: &[f64],
+        prev: &[f64],
+        next: &mut [f64],
+        pc: &[[f64; 2]],
+        pn: &mut [[f64; 2]],
+    ) {
+        let nm = k.nm;
+        assert!(cur.len() == nm && prev.len() == nm && next.len() == nm);
+        assert!(pc.len() == nm && pn.len() == nm);
+        if let [one] = &self.params[..] {
+            self.groups(k, n, cur, prev, pc, |_| std::iter::repeat(one), next, pn);
+        } else {
+            self.groups(k, n, cur, prev, pc, |r| self.params[r].iter(), next, pn);
+        }
+        for (c, cel) in k.cel.iter().enumerate() {
+            let s = k.n_mas + c;
+            let (x, xp) = (cur[s], prev[s]);
+            let v = x - xp;
+            let mut f = 0.0;
+            let terms = &self.cel_terms[self.cel_off[c] as usize..self.cel_off[c + 1] as usize];
+            for t in terms {
+                match *t {
+                    CelTerm::Link(j, law, kk, zz) => {
+                        let [xj, vj] = pc[j as usize];
+                        f -= match law {
+                            Law::Res => kk * (x - xj),
+                            Law::Fro => zz * (v - vj),
+                            _ => kk * (x - xj) + zz * (v - vj),
+                        };
+                    }
+                    CelTerm::Input(i) => f += k.enf[i as usize].at(n),
+                }
+            }
+            let xn = cel.next(x, xp, f);
+            next[s] = xn;
+            pn[s] = [xn, xn - x];
+        }
+        for (e, sig) in k.enx.iter().enumerate() {
+            let s = k.n_mc + e;
+            let xn = sig.at(n + 1);
+            next[s] = xn;
+            pn[s] = [xn, xn - cur[s]];
+        }
+    }
+
+    /// The MAS, group by group; `params(rows)` are the `(K, Z)` of `rows`, row by row.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    #[allow(clippy::too_many_arguments)] // the step's buffers
+    #[inline]
+    fn groups<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>>(
+        &self,
+        k: &Kernel,
+        n: u64,
+        cur: &[f64],
+        prev: &[f64],
+        pc: &[[f64; 2]],
+        params: impl Fn(Range<usize>) -> I,
+        next: &mut [f64],
+        pn: &mut [[f64; 2]],
+    ) {
+        let base = pc.as_ptr().cast::<u8>();
+        // (lanes of the pairs `[x0 v0 x1 v1 x2 v2 x3 v3]`, `[x4 v4 .. x7 v7]`, and back)
+        let low = _mm512_set_epi64(11, 3, 10, 2, 9, 1, 8, 0);
+        let high = _mm512_set_epi64(15, 7, 14, 6, 13, 5, 12, 4);
+        let two = _mm512_set1_pd(2.0);
+        let n_mas = k.n_mas;
+        let groups = (self.bounds.windows(2)).zip(self.enf_bounds.windows(2));
+        for (g, (rows, inputs)) in groups.enumerate() {
+            let s0 = LANES * g;
+            let lanes = (n_mas - s0).min(LANES);
+            let mask = if lanes == LANES {
+                0xff
+            } else {
+                ((1u32 << lanes) - 1) as u8
+            };
+            // SAFETY: lanes `0..lanes` of each load are storage slots `s0..s0 + lanes`, all
+            // `< n_mas <= nm`, the length of `cur` and `prev` (asserted in `step`); masked-off
+            // lanes are not read.
+            let (x, xp) = unsafe {
+                (
+                    _mm512_maskz_loadu_pd(mask, cur.as_ptr().add(s0)),
+                    _mm512_maskz_loadu_pd(mask, prev.as_ptr().add(s0)),
+                )
+            };
+            let v = _mm512_sub_pd(x, xp);
+            let rows = rows[0] as usize..rows[1] as usize;
+            // SAFETY: every row's offsets are those of pairs `< nm` (asserted in `new`), and `pc`
+            // has `nm` pairs (asserted in `step`).
+            let mut f = unsafe { sum(&self.rows[rows.clone()], params(rows), base, x, v) };
+            let inputs = &self.enf[inputs[0] as usize..inputs[1] as usize];
+            if !inputs.is_empty() {
+                let mut lanes_f = [0.0; LANES];
+                // SAFETY: eight `f64`.
+                unsafe { _mm512_storeu_pd(lanes_f.as_mut_ptr(), f) };
+                for &(i, e) in inputs {
+                    lanes_f[i as usize] += k.enf[e as usize].at(n);
+                }
+                // SAFETY: as above.
+                f = unsafe { _mm512_loadu_pd(lanes_f.as_ptr()) };
+            }
+            // 2 x(n) - x(n-1) + F(n) / M, as `by_inv` and `by_div`
+            let acc = match &k.mas {
+                MasLaw::UniformInv(inv) => _mm512_mul_pd(f, _mm512_set1_pd(*inv)),
+                MasLaw::UniformDiv(m) => _mm512_div_pd(f, _mm512_set1_pd(*m)),
+                // SAFETY: lanes `0..lanes` are MAS `s0..`, within the `n_mas` inertias.
+                MasLaw::Inv(inv) => unsafe {
+                    assert!(inv.len() == n_mas);
+                    _mm512_mul_pd(f, _mm512_maskz_loadu_pd(mask, inv.as_ptr().add(s0)))
+                },
+                // SAFETY: as above.
+                MasLaw::Div(m) => unsafe {
+                    assert!(m.len() == n_mas);
+                    _mm512_div_pd(f, _mm512_maskz_loadu_pd(mask, m.as_ptr().add(s0)))
+                },
+            };
+            let xn = _mm512_add_pd(_mm512_sub_pd(_mm512_mul_pd(two, x), xp), acc);
+            let vn = _mm512_sub_pd(xn, x);
+            let (lo, hi) = if lanes == LANES {
+                (0xff, 0xff)
+            } else {
+                let pairs = |l: usize| ((1u32 << (2 * l.min(4))) - 1) as u8;
+                (pairs(lanes), pairs(lanes.saturating_sub(4)))
+            };
+            // SAFETY: lanes `0..lanes` are slots `s0..s0 + lanes < nm` of `next` and of `pn`
+            // (`nm` pairs, `2 nm` `f64`, from `2 s0`); masked-off lanes are not written.
+            unsafe {
+                _mm512_mask_storeu_pd(next.as_mut_ptr().add(s0), mask, xn);
+                let p = pn.as_mut_ptr().cast::<f64>().add(2 * s0);
+                _mm512_mask_storeu_pd(p, lo, _mm512_permutex2var_pd(xn, low, vn));
+                _mm512_mask_storeu_pd(p.add(LANES), hi, _mm512_permutex2var_pd(xn, high, vn));
+            }
+        }
+    }
+}
+
+/// `F(n)` of the eight lanes of a group: from `+0.0`, `F - g` for each of its `rows`, with
+/// `params` (one `(K, Z)` per row), `x(n)` and `v(n)` of the lanes `x`, `v`, and the other ends'
+/// pairs in the buffer at `base`.
+///
+/// # Safety
+/// The CPU has AVX-512F, and every offset of `rows` is that of a pair within the buffer.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+unsafe fn sum<'p>(
+    rows: &[Row],
+    params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+    base: *const u8,
+    x: __m512d,
+    v: __m512d,
+) -> __m512d {
+    let xs = _mm512_set_epi64(14, 12, 10, 8, 6, 4, 2, 0);
+    let vs = _mm512_set_epi64(15, 13, 11, 9, 7, 5, 3, 1);
+    let mut f = _mm512_setzero_pd();
+    for (row, [kr, zr]) in rows.iter().zip(params) {
+        // SAFETY: the caller's promise.
+        let (xj, vj) = unsafe { pairs(base, &row.at, xs, vs) };
+        // SAFETY: eight `f64` each.
+        let (kk, zz) = unsafe { (_mm512_loadu_pd(kr.as_ptr()), _mm512_loadu_pd(zr.as_ptr())) };
+        let spring = _mm512_maskz_mul_pd(row.k, kk, _mm512_sub_pd(x, xj));
+        let damper = _mm512_maskz_mul_pd(row.z, zz, _mm512_sub_pd(v, vj));
+        f = _mm512_sub_pd(f, _mm512_add_pd(spring, damper));
+    }
+    f
+}
+
+/// The positions and velocities of the pairs at byte offsets `at` of the buffer at `base`
+/// (lane `i`: the pair at `base + at[i]`), as two vectors; `xs`, `vs` pick the even and the odd
+/// lanes of two vectors.
+///
+/// # Safety
+/// The CPU has AVX-512F, and `base + at[i]` is a pair of the buffer for every `i`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+unsafe fn pairs(
+    base: *const u8,
+    at: &[u32; LANES],
+    xs: __m512i,
+    vs: __m512i,
+) -> (__m512d, __m512d) {
+    // SAFETY: each 16-byte load reads one pair of the buffer (the caller's promise).
+    let p = |i: usize| unsafe { _mm_loadu_pd(base.add(at[i] as usize).cast::<f64>()) };
+    let (q0, q1, q2, q3) = (p(0), p(1), p(2), p(3));
+    let (q4, q5, q6, q7) = (p(4), p(5), p(6), p(7));
+    let a = _mm512_insertf64x4::<1>(
+        _mm512_castpd256_pd512(_mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(q0), q1)),
+        _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(q2), q3),
+    );
+    let b = _mm512_insertf64x4::<1>(
+        _mm512_castpd256_pd512(_mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(q4), q5)),
+        _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(q6), q7),
+    );
+    (
+        _mm512_permutex2var_pd(a, xs, b),
+        _mm512_permutex2var_pd(a, vs, b),
+    )
+}
