@@ -415,6 +415,8 @@ struct Kernel {
     mas_fix: Vec<u32>,
     /// the pull step, when the network takes it (see [`Kernel::new`] and `engine/pull.rs`)
     pull: Option<Box<pull::Pull>>,
+    /// one share of the pull step per thread (see `Engine::set_threads`)
+    pull_shares: Vec<pull::Share>,
 }
 
 /// The state that stepping changes.
@@ -617,6 +619,7 @@ impl Engine {
         if threads != self.threads || self.k.parts.len() != threads {
             self.threads = threads;
             self.k.parts = self.k.partition(threads, self.st.line());
+            self.k.pull_shares = self.k.pull_partition(threads);
             self.pool = PoolSlot(None);
         }
         self.start_pool();
@@ -657,6 +660,7 @@ impl Engine {
         } else if self.pool.0.as_ref().map(|t| t.pool.threads()) != Some(self.threads) {
             // (a clone has its own buffers, aligned differently: cut the parts for them)
             self.k.parts = self.k.partition(self.threads, self.st.line());
+            self.k.pull_shares = self.k.pull_partition(self.threads);
             self.pool = PoolSlot(Some(Threads {
                 pool: Pool::new(self.threads),
                 claims: (0..2 * self.threads).map(|_| Claim::default()).collect(),
@@ -712,7 +716,11 @@ impl Engine {
     #[track_caller]
     pub fn process(&mut self, frames: usize, out: &mut [f64]) -> Result<(), BlowUp> {
         if self.is_parallel() && frames > 0 && self.st.blown.is_none() {
-            self.process_parallel(frames, out)
+            if self.k.pull.is_some() {
+                self.process_pull_parallel(frames, out)
+            } else {
+                self.process_parallel(frames, out)
+            }
         } else if self.k.pull.is_some() && frames > 0 && self.st.blown.is_none() {
             self.process_pull(frames, out)
         } else {
@@ -830,14 +838,76 @@ impl Engine {
         let n0 = self.st.n;
         pull.block(&self.k, &mut self.st, frames, out);
         self.check_block(n0, frames, out)?;
-        // `link_force` reads `f(n-1)`, which the pull step keeps nowhere: from `x(n-1)`, `x(n-2)`
+        self.restore_link_forces();
+        Ok(())
+    }
+
+    /// [`Engine::process`] with the pull step on the pool's threads.
+    #[track_caller]
+    fn process_pull_parallel(&mut self, frames: usize, out: &mut [f64]) -> Result<(), BlowUp> {
+        assert_eq!(
+            out.len(),
+            frames * self.k.channels.len(),
+            "output buffer must hold frames * channels values"
+        );
+        self.start_pool(); // only a clone, or an engine after a worker panic, has none yet
+        let Some(pull) = self.k.pull.as_deref() else {
+            unreachable!("process takes the pull step only when there is one")
+        };
+        self.st.take_snapshot(self.k.n_mce);
+        pull.prepare(&self.k, &mut self.st);
+        let (n0, c0) = (self.st.n, self.st.c);
+        let result = {
+            let Some(Threads { pool, .. }) = self.pool.0.as_ref() else {
+                unreachable!("start_pool starts a pool when is_parallel")
+            };
+            let [p0, p1, p2] = &mut self.st.pos;
+            let [q0, q1] = &mut self.st.pairs;
+            // The job borrows the state buffers mutably until `pool.run` returns, which is after
+            // every thread is done with them; nothing else touches them meanwhile.
+            let job = pull::PullJob {
+                k: &self.k,
+                pull,
+                shares: &self.k.pull_shares,
+                pos: [SharedBuf::new(p0), SharedBuf::new(p1), SharedBuf::new(p2)],
+                pairs: [
+                    SharedBuf::new(q0.as_flattened_mut()),
+                    SharedBuf::new(q1.as_flattened_mut()),
+                ],
+                sf: SharedBuf::new(&mut self.st.sf),
+                n0,
+                c0,
+                frames,
+            };
+            assert_eq!(job.shares.len(), pool.threads());
+            let r = pool.run(&job, |barrier| job.run_share(0, Some(out), barrier));
+            r.and_then(|()| {
+                if pool.is_poisoned() {
+                    Err(Poisoned)
+                } else {
+                    Ok(())
+                }
+            })
+        };
+        if result.is_err() {
+            self.pool = PoolSlot(None);
+            panic!("an engine worker thread panicked");
+        }
+        self.st.set_step(n0 + frames as u64);
+        self.check_block(n0, frames, out)?;
+        self.restore_link_forces();
+        Ok(())
+    }
+
+    /// After a block of the pull step: `link_force` reads `f(n-1)`, which the pull step keeps
+    /// nowhere; computed from `x(n-1)` and `x(n-2)`, as the last step would have.
+    fn restore_link_forces(&mut self) {
         let r = Roles::at(self.st.c);
         let state = Positions::new(&self.k, &self.st.pos[r.prev], &self.st.pos[r.next]);
         for run in &self.k.whole.runs {
             self.k
                 .run_links(run, &state, &mut self.st.sf[run.start..run.end]);
         }
-        Ok(())
     }
 
     /// After a block from step `n0`: if a position is not finite, replays the block from the
@@ -1013,6 +1083,11 @@ impl Kernel {
             k.pull = pull::Pull::new(&k).map(Box::new);
         }
         k
+    }
+
+    /// The shares of the pull step for `threads` threads (none without a pull step).
+    fn pull_partition(&self, threads: usize) -> Vec<pull::Share> {
+        (self.pull.as_ref()).map_or_else(Vec::new, |p| p.partition(self, threads))
     }
 
     /// [`Kernel::new`] without the pull step.
@@ -1535,6 +1610,7 @@ impl Kernel {
             link_fix,
             mas_fix,
             pull: None,
+            pull_shares: Vec::new(),
         };
         // (a link to a SOL reads a position nobody writes; the others are local when their ends
         // are within [`NEAR`] slots of each other in storage)

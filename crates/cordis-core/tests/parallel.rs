@@ -209,6 +209,29 @@ fn random_networks_match_on_any_thread_count_and_block_size() {
     }
 }
 
+/// Networks of springs and dampers (the pull step's kind on an AVX-512 CPU: one barrier per
+/// step, each thread its consecutive groups of eight MAS, the last one the CEL and ENX), with
+/// every MAS update form, uniform and mixed links, and as many threads as groups or more.
+#[test]
+fn spring_networks_match_on_any_thread_count_and_block_size() {
+    for (seed, n, steps, inertia, uniform) in [
+        (1, 16, 400, 0, true),
+        (2, 17, 400, 1, false),
+        (3, 300, 1100, 2, false),
+        (4, 3001, 300, 3, true),
+        (5, 20_000, 120, 0, true),
+    ] {
+        let net = spring_network(seed, n, 4, inertia, uniform);
+        let expected = single_thread_checked(&net, steps);
+        check_all(
+            &net,
+            steps,
+            &expected,
+            &format!("springs {seed}, {n} masses"),
+        );
+    }
+}
+
 #[test]
 fn every_module_network_matches_with_more_threads_than_modules_per_kind() {
     // 4 threads on 3 MAS, 1 CEL, 1 ENX and 7 links: some threads get nothing of some kind.

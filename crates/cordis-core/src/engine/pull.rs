@@ -42,6 +42,8 @@ use std::arch::x86_64::*;
 
 use std::ops::Range;
 
+use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
+
 use super::{Channel, Ends, Kernel, Law, MasLaw, Positions, Roles, Run, State, Term, NEG};
 use crate::lanes::Avx512;
 
@@ -61,6 +63,14 @@ struct Row {
     /// The lanes whose term has a spring (`K d`), a damper (`Z v`).
     k: u8,
     z: u8,
+}
+
+/// The work of one thread in a step: the MAS of `groups`, and the CEL and ENX when `slots`
+/// (the storage slots whose `x(n+1)` it writes) reach past the MAS.
+#[derive(Clone, Debug)]
+pub(super) struct Share {
+    pub(super) groups: Range<usize>,
+    pub(super) slots: Range<usize>,
 }
 
 /// A link term of a CEL.
@@ -218,27 +228,47 @@ impl Pull {
         Some(p)
     }
 
-    /// Steps `frames` times from `st`, writing the outputs into `out` (see
-    /// [`super::Engine::process`]); `pairs` holds two buffers of one pair per material.
-    pub(super) fn block(&self, k: &Kernel, st: &mut State, frames: usize, out: &mut [f64]) {
-        debug_assert_eq!(Some(self.cpu), Avx512::detect());
-        #[cfg(target_arch = "x86_64")]
-        {
-            // SAFETY: `self.cpu` exists, so the CPU has AVX-512F (see `Avx512::detect`).
-            unsafe { self.block_avx512(k, st, frames, out) }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            let _ = (k, st, frames, out);
-            unreachable!("a pull step needs an Avx512 token, which exists only on x86-64");
-        }
+    /// Cuts the work of a step into `threads` shares of about equal cost (consecutive groups;
+    /// the last share also has the CEL and ENX).
+    pub(super) fn partition(&self, k: &Kernel, threads: usize) -> Vec<Share> {
+        let groups = self.bounds.len() - 1;
+        let cost = |g: usize| u64::from(self.bounds[g + 1] - self.bounds[g]) + 1;
+        let ranges = super::split(groups, threads.max(1), cost);
+        let last = ranges.len() - 1;
+        (ranges.into_iter().enumerate())
+            .map(|(t, g)| {
+                let mas = (LANES * g.start).min(k.n_mas)..(LANES * g.end).min(k.n_mas);
+                Share {
+                    groups: g,
+                    slots: mas.start..if t == last { k.n_mce } else { mas.end },
+                }
+            })
+            .collect()
     }
 
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn block_avx512(&self, k: &Kernel, st: &mut State, frames: usize, out: &mut [f64]) {
+    /// Sets the pairs of step `st.n` (buffer 0) from the positions, and the SOL's (which never
+    /// change) in buffer 1 too.
+    pub(super) fn prepare(&self, k: &Kernel, st: &mut State) {
+        let r = Roles::at(st.c);
+        let (x, xp) = (&st.pos[r.cur], &st.pos[r.prev]);
+        let [p0, p1] = &mut st.pairs;
+        assert!(p0.len() == k.nm && p1.len() == k.nm);
+        for ((p, &x), &xp) in p0.iter_mut().zip(x).zip(xp) {
+            *p = [x, x - xp];
+        }
+        p1[k.n_mce..].copy_from_slice(&p0[k.n_mce..]);
+    }
+
+    /// Steps `frames` times from `st` on the calling thread, writing the outputs into `out` (see
+    /// [`super::Engine::process`]).
+    pub(super) fn block(&self, k: &Kernel, st: &mut State, frames: usize, out: &mut [f64]) {
+        debug_assert_eq!(Some(self.cpu), Avx512::detect());
+        self.prepare(k, st);
+        let whole = Share {
+            groups: 0..self.bounds.len() - 1,
+            slots: 0..k.n_mce,
+        };
         let ch = k.channels.len();
-        let nm = k.nm;
         let State {
             n,
             c,
@@ -248,16 +278,6 @@ impl Pull {
             ..
         } = st;
         let [p0, p1] = pairs;
-        assert!(p0.len() == nm && p1.len() == nm && sf.len() == k.sf_len);
-        {
-            let r = Roles::at(*c);
-            let (x, xp) = (&pos[r.cur], &pos[r.prev]);
-            for ((p, &x), &xp) in p0.iter_mut().zip(x).zip(xp) {
-                *p = [x, x - xp];
-            }
-            // (SOL pairs never change: both buffers hold them)
-            p1[k.n_mce..].copy_from_slice(&p0[k.n_mce..]);
-        }
         let mut flip = false;
         for frame in 0..frames {
             let roles = Roles::at(*c);
@@ -267,40 +287,117 @@ impl Pull {
             } else {
                 (&p0[..], &mut p1[..])
             };
-            let state = Positions::new(k, cur, prev);
-            for run in &self.recorded {
-                k.run_links(run, &state, &mut sf[run.start..run.end]);
-            }
-            k.record(cur, &sf[..k.nl], &mut out[frame * ch..(frame + 1) * ch]);
-            self.step(k, *n, cur, prev, next, pc, pn);
+            self.record(k, cur, prev, sf, &mut out[frame * ch..(frame + 1) * ch]);
+            let mine = whole.slots.clone();
+            self.step(
+                k,
+                *n,
+                &whole,
+                cur,
+                prev,
+                pc,
+                &mut next[mine.clone()],
+                &mut pn[mine],
+            );
             *n += 1;
             *c = roles.next;
             flip = !flip;
         }
     }
 
-    /// Step `n`: `x(n+1)` of every moving material into `next`, and its pair into `pn`.
+    /// The outputs of a step: the forces of the links they read into `sf`, then `frame`.
+    #[inline]
+    pub(super) fn record(
+        &self,
+        k: &Kernel,
+        cur: &[f64],
+        prev: &[f64],
+        sf: &mut [f64],
+        frame: &mut [f64],
+    ) {
+        let state = Positions::new(k, cur, prev);
+        for run in &self.recorded {
+            k.run_links(run, &state, &mut sf[run.start..run.end]);
+        }
+        k.record(cur, &sf[..k.nl], frame);
+    }
+
+    /// Step `n` of `share`: `x(n+1)` of its moving materials into `next` and their pairs into
+    /// `pn` (both its `slots`), from `x(n)`, `x(n-1)` and the pairs `pc` of every material.
+    #[allow(clippy::too_many_arguments)] // the step's buffers
+    pub(super) fn step(
+        &self,
+        k: &Kernel,
+        n: u64,
+        share: &Share,
+        cur: &[f64],
+        prev: &[f64],
+        pc: &[[f64; 2]],
+        next: &mut [f64],
+        pn: &mut [[f64; 2]],
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `self.cpu` exists, so the CPU has AVX-512F (see `Avx512::detect`).
+        unsafe {
+            self.step_avx512(k, n, share, cur, prev, pc, next, pn);
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = (k, n, share, cur, prev, pc, next, pn);
+            unreachable!("a pull step needs an Avx512 token, which exists only on x86-64");
+        }
+    }
+
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
     #[allow(clippy::too_many_arguments)] // the step's buffers
-    fn step(
+    fn step_avx512(
+        &self,
+        k: &Kernel,
+        n: u64,
+        share: &Share,
+        cur: &[f64],
+        prev: &[f64],
+        pc: &[[f64; 2]],
+        next: &mut [f64],
+        pn: &mut [[f64; 2]],
+    ) {
+        let nm = k.nm;
+        assert!(cur.len() == nm && prev.len() == nm && pc.len() == nm);
+        let slots = share.slots.clone();
+        assert!(next.len() == slots.len() && pn.len() == slots.len());
+        let mas = slots.end.min(k.n_mas) - slots.start;
+        let (next, next_others) = next.split_at_mut(mas);
+        let (pn, pn_others) = pn.split_at_mut(mas);
+        let gr = share.groups.clone();
+        if let [one] = &self.params[..] {
+            let params = |_: Range<usize>| std::iter::repeat(one);
+            self.groups(k, n, gr, cur, prev, pc, params, next, pn);
+        } else {
+            let params = |r: Range<usize>| self.params[r].iter();
+            self.groups(k, n, gr, cur, prev, pc, params, next, pn);
+        }
+        if slots.end > k.n_mas {
+            assert!(slots.end == k.n_mce && slots.start <= k.n_mas);
+            self.others(k, n, cur, prev, pc, next_others, pn_others);
+        }
+    }
+
+    /// The CEL and ENX of step `n`: their `x(n+1)` into `next` and pairs into `pn` (slots
+    /// `n_mas..n_mce`).
+    #[allow(clippy::too_many_arguments)] // the step's buffers
+    #[inline]
+    fn others(
         &self,
         k: &Kernel,
         n: u64,
         cur: &[f64],
         prev: &[f64],
-        next: &mut [f64],
         pc: &[[f64; 2]],
+        next: &mut [f64],
         pn: &mut [[f64; 2]],
     ) {
-        let nm = k.nm;
-        assert!(cur.len() == nm && prev.len() == nm && next.len() == nm);
-        assert!(pc.len() == nm && pn.len() == nm);
-        if let [one] = &self.params[..] {
-            self.groups(k, n, cur, prev, pc, |_| std::iter::repeat(one), next, pn);
-        } else {
-            self.groups(k, n, cur, prev, pc, |r| self.params[r].iter(), next, pn);
-        }
+        assert!(next.len() == k.n_mce - k.n_mas && pn.len() == next.len());
         for (c, cel) in k.cel.iter().enumerate() {
             let s = k.n_mas + c;
             let (x, xp) = (cur[s], prev[s]);
@@ -321,14 +418,14 @@ impl Pull {
                 }
             }
             let xn = cel.next(x, xp, f);
-            next[s] = xn;
-            pn[s] = [xn, xn - x];
+            next[c] = xn;
+            pn[c] = [xn, xn - x];
         }
+        let n_cel = k.cel.len();
         for (e, sig) in k.enx.iter().enumerate() {
-            let s = k.n_mc + e;
             let xn = sig.at(n + 1);
-            next[s] = xn;
-            pn[s] = [xn, xn - cur[s]];
+            next[n_cel + e] = xn;
+            pn[n_cel + e] = [xn, xn - cur[k.n_mc + e]];
         }
     }
 
@@ -341,6 +438,7 @@ impl Pull {
         &self,
         k: &Kernel,
         n: u64,
+        gr: Range<usize>,
         cur: &[f64],
         prev: &[f64],
         pc: &[[f64; 2]],
@@ -348,14 +446,19 @@ impl Pull {
         next: &mut [f64],
         pn: &mut [[f64; 2]],
     ) {
+        // `next` and `pn` are the slots of the MAS of groups `gr`, from `o`
+        let o = LANES * gr.start;
+        assert!(next.len() == (LANES * gr.end).min(k.n_mas) - o.min(k.n_mas));
+        assert!(pn.len() == next.len() && gr.end < self.bounds.len());
         let base = pc.as_ptr().cast::<u8>();
         // (lanes of the pairs `[x0 v0 x1 v1 x2 v2 x3 v3]`, `[x4 v4 .. x7 v7]`, and back)
         let low = _mm512_set_epi64(11, 3, 10, 2, 9, 1, 8, 0);
         let high = _mm512_set_epi64(15, 7, 14, 6, 13, 5, 12, 4);
         let two = _mm512_set1_pd(2.0);
         let n_mas = k.n_mas;
-        let groups = (self.bounds.windows(2)).zip(self.enf_bounds.windows(2));
-        for (g, (rows, inputs)) in groups.enumerate() {
+        let groups = (self.bounds[gr.start..=gr.end].windows(2))
+            .zip(self.enf_bounds[gr.start..=gr.end].windows(2));
+        for (g, (rows, inputs)) in (gr.start..).zip(groups) {
             let s0 = LANES * g;
             let lanes = (n_mas - s0).min(LANES);
             let mask = if lanes == LANES {
@@ -411,11 +514,12 @@ impl Pull {
                 let pairs = |l: usize| ((1u32 << (2 * l.min(4))) - 1) as u8;
                 (pairs(lanes), pairs(lanes.saturating_sub(4)))
             };
-            // SAFETY: lanes `0..lanes` are slots `s0..s0 + lanes < nm` of `next` and of `pn`
-            // (`nm` pairs, `2 nm` `f64`, from `2 s0`); masked-off lanes are not written.
+            // SAFETY: lanes `0..lanes` are slots `s0..s0 + lanes`, items `s0 - o..` of `next`
+            // and of `pn` (asserted above: the groups `gr` cover them), pairs of two `f64`;
+            // masked-off lanes are not written.
             unsafe {
-                _mm512_mask_storeu_pd(next.as_mut_ptr().add(s0), mask, xn);
-                let p = pn.as_mut_ptr().cast::<f64>().add(2 * s0);
+                _mm512_mask_storeu_pd(next.as_mut_ptr().add(s0 - o), mask, xn);
+                let p = pn.as_mut_ptr().cast::<f64>().add(2 * (s0 - o));
                 _mm512_mask_storeu_pd(p, lo, _mm512_permutex2var_pd(xn, low, vn));
                 _mm512_mask_storeu_pd(p.add(LANES), hi, _mm512_permutex2var_pd(xn, high, vn));
             }
@@ -485,4 +589,86 @@ unsafe fn pairs(
         _mm512_permutex2var_pd(a, xs, b),
         _mm512_permutex2var_pd(a, vs, b),
     )
+}
+
+/// One block of the pull step on the pool's threads (see `parallel.rs` for the discipline).
+///
+/// Thread `t` steps share `t` of [`Pull::partition`]. Per step `n`, with `cur`, `prev`, `next`
+/// the [`Roles`] of step `n`, and `pc`, `pn` the pair buffers of steps `n` and `n + 1`
+/// (`pairs[s % 2]` and the other, `s` counting the block's steps):
+///
+/// | reads (everyone) | writes (thread `t` only) |
+/// | --- | --- |
+/// | `pos[cur]`, `pos[prev]`, `pc` | share `t`'s slots of `pos[next]` and of `pn` |
+///
+/// Thread 0 also records the outputs: it reads `pos[cur]` and `pos[prev]`, and writes `sf` (the
+/// recorded links' forces) and its frame of the output, which no other thread touches. Nothing
+/// a step reads is written in it, and the shares' slots are disjoint (consecutive ranges of the
+/// storage slots, from `Pull::partition`). The one barrier after each step orders its writes of
+/// `pos[next]` and `pn` before the next step's reads (where they are `cur` and `pc`); the pairs of
+/// the first step were set before the job was published (`Pool::run` releases them to the
+/// workers).
+///
+/// Which thread steps a MAS changes no bit: its sum and update read the same values in the same
+/// order whoever computes them.
+pub(super) struct PullJob<'a> {
+    pub(super) k: &'a Kernel,
+    pub(super) pull: &'a Pull,
+    pub(super) shares: &'a [Share],
+    pub(super) pos: [SharedBuf; 3],
+    /// the two pair buffers, as `f64` (pair `s` is items `2 s`, `2 s + 1`)
+    pub(super) pairs: [SharedBuf; 2],
+    pub(super) sf: SharedBuf,
+    pub(super) n0: u64,
+    /// `n0 % 3`
+    pub(super) c0: usize,
+    pub(super) frames: usize,
+}
+
+impl Task for PullJob<'_> {
+    fn run(&self, t: usize, barrier: &SpinBarrier) -> Result<(), Poisoned> {
+        self.run_share(t, None, barrier)
+    }
+}
+
+impl PullJob<'_> {
+    /// Thread `t`'s steps; thread 0 passes the output buffer.
+    pub(super) fn run_share(
+        &self,
+        t: usize,
+        mut out: Option<&mut [f64]>,
+        barrier: &SpinBarrier,
+    ) -> Result<(), Poisoned> {
+        let k = self.k;
+        let share = &self.shares[t];
+        let slots = share.slots.clone();
+        let ch = k.channels.len();
+        let mut c = self.c0;
+        for s in 0..self.frames {
+            let r = Roles::at(c);
+            let (pc, pn) = (&self.pairs[s % 2], &self.pairs[1 - s % 2]);
+            // SAFETY: each access follows the table in the type's documentation: shared reads of
+            // buffers nobody writes in this step, exclusive writes to this share's slots (or, on
+            // thread 0, to `sf`), every slice dropped before the barrier that ends the step.
+            unsafe {
+                let (cur, prev) = (self.pos[r.cur].read(), self.pos[r.prev].read());
+                if let Some(out) = out.as_deref_mut() {
+                    let sf = self.sf.write(0..k.sf_len);
+                    self.pull
+                        .record(k, cur, prev, sf, &mut out[s * ch..(s + 1) * ch]);
+                }
+                let pc = pc.read().as_chunks::<2>().0;
+                let next = self.pos[r.next].write(slots.clone());
+                let pn = pn
+                    .write(2 * slots.start..2 * slots.end)
+                    .as_chunks_mut::<2>()
+                    .0;
+                let n = self.n0 + s as u64;
+                self.pull.step(k, n, share, cur, prev, pc, next, pn);
+            }
+            barrier.wait()?;
+            c = r.next;
+        }
+        Ok(())
+    }
 }
