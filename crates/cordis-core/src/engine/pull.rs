@@ -40,6 +40,8 @@
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
 
+#[cfg(target_arch = "x86_64")]
+use std::hint::black_box;
 use std::ops::Range;
 
 use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
@@ -372,10 +374,10 @@ impl Pull {
         let gr = share.groups.clone();
         if let [one] = &self.params[..] {
             let params = |_: Range<usize>| std::iter::repeat(one);
-            self.groups(k, n, gr, cur, prev, pc, params, next, pn);
+            self.groups(k, n, gr, prev, pc, params, next, pn);
         } else {
             let params = |r: Range<usize>| self.params[r].iter();
-            self.groups(k, n, gr, cur, prev, pc, params, next, pn);
+            self.groups(k, n, gr, prev, pc, params, next, pn);
         }
         if slots.end > k.n_mas {
             assert!(slots.end == k.n_mce && slots.start <= k.n_mas);
@@ -439,7 +441,6 @@ impl Pull {
         k: &Kernel,
         n: u64,
         gr: Range<usize>,
-        cur: &[f64],
         prev: &[f64],
         pc: &[[f64; 2]],
         params: impl Fn(Range<usize>) -> I,
@@ -455,6 +456,8 @@ impl Pull {
         let low = _mm512_set_epi64(11, 3, 10, 2, 9, 1, 8, 0);
         let high = _mm512_set_epi64(15, 7, 14, 6, 13, 5, 12, 4);
         let two = _mm512_set1_pd(2.0);
+        let xs = _mm512_set_epi64(14, 12, 10, 8, 6, 4, 2, 0);
+        let vs = _mm512_set_epi64(15, 13, 11, 9, 7, 5, 3, 1);
         let n_mas = k.n_mas;
         let groups = (self.bounds[gr.start..=gr.end].windows(2))
             .zip(self.enf_bounds[gr.start..=gr.end].windows(2));
@@ -466,20 +469,39 @@ impl Pull {
             } else {
                 ((1u32 << lanes) - 1) as u8
             };
-            // SAFETY: lanes `0..lanes` of each load are storage slots `s0..s0 + lanes`, all
-            // `< n_mas <= nm`, the length of `cur` and `prev` (asserted in `step`); masked-off
-            // lanes are not read.
-            let (x, xp) = unsafe {
+            let (lo, hi) = if lanes == LANES {
+                (0xff, 0xff)
+            } else {
+                let pairs = |l: usize| ((1u32 << (2 * l.min(4))) - 1) as u8;
+                (pairs(lanes), pairs(lanes.saturating_sub(4)))
+            };
+            // `x(n)` and `v(n)` of the lanes from their own pairs (the same bits as `cur` and
+            // `cur - prev`); `x(n-1)` is read only after the sum, so that no vector lives across
+            // the loop but those it uses (a vector kept across it went to the stack, and loading
+            // it back stalled on stack addresses that split a cache line: 20 % of the time).
+            // SAFETY: lanes `0..lanes` are the pairs of storage slots `s0..s0 + lanes`, all
+            // `< n_mas <= nm`, the length of `pc` (asserted in `step`): `f64` items `2 s0..` of
+            // its `2 nm`; masked-off lanes are not read.
+            let (x, v) = unsafe {
+                let p = base.cast::<f64>().add(2 * s0);
+                let (a, b) = if lanes == LANES {
+                    (_mm512_loadu_pd(p), _mm512_loadu_pd(p.add(LANES)))
+                } else {
+                    (
+                        _mm512_maskz_loadu_pd(lo, p),
+                        _mm512_maskz_loadu_pd(hi, p.add(LANES)),
+                    )
+                };
                 (
-                    _mm512_maskz_loadu_pd(mask, cur.as_ptr().add(s0)),
-                    _mm512_maskz_loadu_pd(mask, prev.as_ptr().add(s0)),
+                    _mm512_permutex2var_pd(a, xs, b),
+                    _mm512_permutex2var_pd(a, vs, b),
                 )
             };
-            let v = _mm512_sub_pd(x, xp);
             let rows = rows[0] as usize..rows[1] as usize;
             // SAFETY: every row's offsets are those of pairs `< nm` (asserted in `new`), and `pc`
             // has `nm` pairs (asserted in `step`).
-            let mut f = unsafe { sum(&self.rows[rows.clone()], params(rows), base, x, v) };
+            let mut f =
+                unsafe { sum(&self.rows[rows.clone()], params(rows), base, x, v, (xs, vs)) };
             let inputs = &self.enf[inputs[0] as usize..inputs[1] as usize];
             if !inputs.is_empty() {
                 let mut lanes_f = [0.0; LANES];
@@ -491,10 +513,21 @@ impl Pull {
                 // SAFETY: as above.
                 f = unsafe { _mm512_loadu_pd(lanes_f.as_ptr()) };
             }
+            // (`black_box`: the compiler would otherwise hoist this load above the inputs'
+            // calls and the loop, and keep its vector on the stack across them)
+            let at = black_box(prev.as_ptr()).wrapping_add(s0);
+            // SAFETY: as for the pairs, in `prev`, of `nm` items (asserted in `step`).
+            let xp = unsafe {
+                if lanes == LANES {
+                    _mm512_loadu_pd(at)
+                } else {
+                    _mm512_maskz_loadu_pd(mask, at)
+                }
+            };
             // 2 x(n) - x(n-1) + F(n) / M, as `by_inv` and `by_div`
             let acc = match &k.mas {
-                MasLaw::UniformInv(inv) => _mm512_mul_pd(f, _mm512_set1_pd(*inv)),
-                MasLaw::UniformDiv(m) => _mm512_div_pd(f, _mm512_set1_pd(*m)),
+                MasLaw::UniformInv(inv) => _mm512_mul_pd(f, _mm512_set1_pd(*black_box(inv))),
+                MasLaw::UniformDiv(m) => _mm512_div_pd(f, _mm512_set1_pd(*black_box(m))),
                 // SAFETY: lanes `0..lanes` are MAS `s0..`, within the `n_mas` inertias.
                 MasLaw::Inv(inv) => unsafe {
                     assert!(inv.len() == n_mas);
@@ -508,20 +541,25 @@ impl Pull {
             };
             let xn = _mm512_add_pd(_mm512_sub_pd(_mm512_mul_pd(two, x), xp), acc);
             let vn = _mm512_sub_pd(xn, x);
-            let (lo, hi) = if lanes == LANES {
-                (0xff, 0xff)
-            } else {
-                let pairs = |l: usize| ((1u32 << (2 * l.min(4))) - 1) as u8;
-                (pairs(lanes), pairs(lanes.saturating_sub(4)))
-            };
             // SAFETY: lanes `0..lanes` are slots `s0..s0 + lanes`, items `s0 - o..` of `next`
             // and of `pn` (asserted above: the groups `gr` cover them), pairs of two `f64`;
             // masked-off lanes are not written.
             unsafe {
-                _mm512_mask_storeu_pd(next.as_mut_ptr().add(s0 - o), mask, xn);
+                let (a, b) = (
+                    _mm512_permutex2var_pd(xn, low, vn),
+                    _mm512_permutex2var_pd(xn, high, vn),
+                );
                 let p = pn.as_mut_ptr().cast::<f64>().add(2 * (s0 - o));
-                _mm512_mask_storeu_pd(p, lo, _mm512_permutex2var_pd(xn, low, vn));
-                _mm512_mask_storeu_pd(p.add(LANES), hi, _mm512_permutex2var_pd(xn, high, vn));
+                let x = next.as_mut_ptr().add(s0 - o);
+                if lanes == LANES {
+                    _mm512_storeu_pd(x, xn);
+                    _mm512_storeu_pd(p, a);
+                    _mm512_storeu_pd(p.add(LANES), b);
+                } else {
+                    _mm512_mask_storeu_pd(x, mask, xn);
+                    _mm512_mask_storeu_pd(p, lo, a);
+                    _mm512_mask_storeu_pd(p.add(LANES), hi, b);
+                }
             }
         }
     }
@@ -529,7 +567,7 @@ impl Pull {
 
 /// `F(n)` of the eight lanes of a group: from `+0.0`, `F - g` for each of its `rows`, with
 /// `params` (one `(K, Z)` per row), `x(n)` and `v(n)` of the lanes `x`, `v`, and the other ends'
-/// pairs in the buffer at `base`.
+/// pairs in the buffer at `base` (`xs`, `vs`: see [`pairs`]).
 ///
 /// # Safety
 /// The CPU has AVX-512F, and every offset of `rows` is that of a pair within the buffer.
@@ -542,9 +580,8 @@ unsafe fn sum<'p>(
     base: *const u8,
     x: __m512d,
     v: __m512d,
+    (xs, vs): (__m512i, __m512i),
 ) -> __m512d {
-    let xs = _mm512_set_epi64(14, 12, 10, 8, 6, 4, 2, 0);
-    let vs = _mm512_set_epi64(15, 13, 11, 9, 7, 5, 3, 1);
     let mut f = _mm512_setzero_pd();
     for (row, [kr, zr]) in rows.iter().zip(params) {
         // SAFETY: the caller's promise.
