@@ -1232,6 +1232,7 @@ fn main() {
     }
     if args.first().map(String::as_str) == Some("netlist") {
         let Some(dir) = args.get(1) else { usage() };
+        std::fs::create_dir_all(dir).expect("netlist directory created");
         for spec in &parse_args(&args[2..]) {
             let model = build(spec);
             let path = std::path::Path::new(dir).join(format!("{}.net", model.name));

@@ -1075,7 +1075,7 @@ impl Kernel {
     /// A network of RES, FRO and REF links without locality (one that takes the compact step,
     /// whose links are scattered, or whose links and MAS are mostly read through index lists)
     /// also gets the pull step (`engine/pull.rs`) when the CPU has AVX-512: [`Engine::process`]
-    /// then takes it on one thread.
+    /// then takes it, on one thread or on the pool's (`pull::PullJob`).
     #[track_caller]
     fn new(net: &Network) -> Kernel {
         let mut k = Kernel::choose(net);
