@@ -798,7 +798,7 @@ impl Engine {
                 frames,
                 channels: ch,
             };
-            let r = pool.run(&job, |barrier| {
+            pool.run_steps(&job, |barrier| {
                 let share = Share {
                     job: &job,
                     t: 0,
@@ -806,21 +806,20 @@ impl Engine {
                     barrier,
                 };
                 vectorised(job.k.simd, share)
-            });
-            r.and_then(|()| {
-                if pool.is_poisoned() {
-                    Err(Poisoned)
-                } else {
-                    Ok(())
-                }
             })
         };
+        self.drop_pool_if_failed(result);
+        self.st.set_step(n0 + frames as u64);
+        self.check_block(n0, frames, out)
+    }
+
+    /// After a threaded block: a worker that panicked leaves the pool unusable, so it is dropped
+    /// (the next threaded block starts a new one) and the panic goes on on this thread.
+    fn drop_pool_if_failed(&mut self, result: Result<(), Poisoned>) {
         if result.is_err() {
             self.pool = PoolSlot(None);
             panic!("an engine worker thread panicked");
         }
-        self.st.set_step(n0 + frames as u64);
-        self.check_block(n0, frames, out)
     }
 
     /// [`Engine::process`] with the pull step.
@@ -880,19 +879,9 @@ impl Engine {
                 frames,
             };
             assert_eq!(job.shares.len(), pool.threads());
-            let r = pool.run(&job, |barrier| job.run_share(0, Some(out), barrier));
-            r.and_then(|()| {
-                if pool.is_poisoned() {
-                    Err(Poisoned)
-                } else {
-                    Ok(())
-                }
-            })
+            pool.run_steps(&job, |barrier| job.run_share(0, Some(out), barrier))
         };
-        if result.is_err() {
-            self.pool = PoolSlot(None);
-            panic!("an engine worker thread panicked");
-        }
+        self.drop_pool_if_failed(result);
         self.st.set_step(n0 + frames as u64);
         self.check_block(n0, frames, out)?;
         self.restore_link_forces();

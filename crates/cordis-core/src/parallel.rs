@@ -318,6 +318,21 @@ impl Pool {
         };
         main(&shared.barrier)
     }
+
+    /// [`Pool::run`] for a step's job: `Err(Poisoned)` if thread 0's share failed or a worker
+    /// panicked.
+    pub(crate) fn run_steps<T: Task>(
+        &self,
+        task: &T,
+        main: impl FnOnce(&SpinBarrier) -> Result<(), Poisoned>,
+    ) -> Result<(), Poisoned> {
+        self.run(task, main)?;
+        if self.is_poisoned() {
+            Err(Poisoned)
+        } else {
+            Ok(())
+        }
+    }
 }
 
 struct WaitForWorkers<'a> {
