@@ -524,7 +524,8 @@ impl Pull {
                     _mm512_maskz_loadu_pd(mask, at)
                 }
             };
-            // 2 x(n) - x(n-1) + F(n) / M, as `by_inv` and `by_div`
+            // 2 x(n) - x(n-1) + F(n) / M, as `by_inv` and `by_div` (a uniform inertia is
+            // broadcast here, through `black_box`, for the same reason as `x(n-1)`)
             let acc = match &k.mas {
                 MasLaw::UniformInv(inv) => _mm512_mul_pd(f, _mm512_set1_pd(*black_box(inv))),
                 MasLaw::UniformDiv(m) => _mm512_div_pd(f, _mm512_set1_pd(*black_box(m))),
