@@ -1955,7 +1955,7 @@ impl Kernel {
     }
 
     /// A run of a law with parameters `(K, Z, S) = params(i)` for its `i`-th link: a chain (see
-    /// [`chain`]) when the law allows it, or [`Kernel::each`].
+    /// [`chain`]) with AVX-512, or [`Kernel::each`].
     #[inline(always)]
     fn law_run<L: LinkLaw, S: Sink>(
         &self,
@@ -1978,7 +1978,7 @@ impl Kernel {
             },
         ) = (self.tails(), run.ends)
         {
-            if L::CHAIN && b0 == a0 + 1 && !S::ACCUMULATES {
+            if b0 == a0 + 1 && !S::ACCUMULATES {
                 let (n, a) = (run.end - run.start, a0 as usize);
                 let (x, xp) = (&st.x[a..a + n + 1], &st.xp[a..a + n + 1]);
                 chain(cpu, x, xp, &mut lf[..n], |i, xa, va, xb, vb| {
@@ -2707,10 +2707,6 @@ impl Vectorised for Share<'_, '_> {
 /// `(x1(n), x1(n-1), x2(n), x2(n-1))`, with the expressions of FORMALISM.md: `d = x1 - x2`,
 /// `v = (x1 - x1') - (x2 - x2')`.
 trait LinkLaw {
-    /// Whether runs of this law that are chains are stepped by [`chain`] (a BUT's condition makes
-    /// its lanes branch: 2.8x slower there than in [`Kernel::each`]'s loop).
-    const CHAIN: bool = true;
-
     /// The force from the ends' positions and velocities `va = x1 - x1'`, `vb = x2 - x2'`, so that
     /// `(xa - pa) - (xb - pb)` is `va - vb`, operand for operand.
     fn force_v(k: f64, z: f64, s: f64, xa: f64, va: f64, xb: f64, vb: f64) -> f64;
@@ -2754,12 +2750,12 @@ impl LinkLaw for RefLaw {
 }
 
 impl LinkLaw for ButLaw {
-    const CHAIN: bool = false;
-
     #[inline(always)]
     fn force_v(k: f64, z: f64, s: f64, xa: f64, va: f64, xb: f64, vb: f64) -> f64 {
+        // (computed in both cases, then chosen: a select the vector loops make a blend)
+        let f = k * ((xa - xb) + s) + z * (va - vb);
         if xb - xa < s {
-            k * ((xa - xb) + s) + z * (va - vb)
+            f
         } else {
             0.0
         }
@@ -4077,8 +4073,8 @@ mod tests {
     }
 
     /// [`chain`] gives each link the force [`LinkLaw::force`] computes from its ends' positions,
-    /// bit for bit, for every length (every remainder of 8, and shorter than one block), with
-    /// per-link parameters, and writes nothing past the last link.
+    /// bit for bit, for every law, every length (every remainder of 8, and shorter than one
+    /// block), with per-link parameters, and writes nothing past the last link.
     #[test]
     fn chains_give_each_link_the_force_of_its_ends() {
         let Some(cpu) = Avx512::detect() else {
@@ -4097,30 +4093,34 @@ mod tests {
             let xp: Vec<f64> = x.iter().map(|&x| x - 1e-3 * draw()).collect();
             let k: Vec<f64> = (0..n).map(|_| 0.1 + 0.01 * draw()).collect();
             let z: Vec<f64> = (0..n).map(|_| 1e-3 * (1.0 + draw())).collect();
-            fn check<L: LinkLaw>(cpu: Avx512, (x, xp, k, z): (&[f64], &[f64], &[f64], &[f64])) {
+            // BUT thresholds of both signs: some links in contact, some not
+            let s: Vec<f64> = (0..n).map(|_| 0.5 * draw()).collect();
+            type Ends<'a> = (&'a [f64], &'a [f64], &'a [f64], &'a [f64], &'a [f64]);
+            fn check<L: LinkLaw>(cpu: Avx512, (x, xp, k, z, s): Ends<'_>) {
                 let n = k.len();
                 let mut lf = vec![f64::NAN; n + 9];
                 chain(cpu, x, xp, &mut lf[..n], |i, xa, va, xb, vb| {
-                    L::force_v(k[i], z[i], 0.0, xa, va, xb, vb)
+                    L::force_v(k[i], z[i], s[i], xa, va, xb, vb)
                 });
                 for i in 0..n {
-                    let want = L::force(k[i], z[i], 0.0, x[i], xp[i], x[i + 1], xp[i + 1]);
+                    let want = L::force(k[i], z[i], s[i], x[i], xp[i], x[i + 1], xp[i + 1]);
                     assert_eq!(lf[i].to_bits(), want.to_bits(), "link {i} of {n}");
                 }
                 assert!(lf[n..].iter().all(|f| f.is_nan()), "written past {n} links");
             }
-            let ends = (&x[..], &xp[..], &k[..], &z[..]);
+            let ends = (&x[..], &xp[..], &k[..], &z[..], &s[..]);
             check::<RefLaw>(cpu, ends);
             check::<ResLaw>(cpu, ends);
             check::<FroLaw>(cpu, ends);
+            check::<ButLaw>(cpu, ends);
         }
     }
 
-    /// Strings of each law that [`chain`] steps (uniform, and with a stiffness per link), with
+    /// Strings of each law that [`chain`] steps (uniform, and with a parameter per link), with
     /// inertias of every update form and an ENF input, give the scalar build's bits.
     #[test]
     fn chained_strings_give_the_scalar_bits() {
-        let laws: [fn(usize) -> Interaction; 6] = [
+        let laws: [fn(usize) -> Interaction; 8] = [
             |_| Interaction::Ref { k: 0.1, z: 1e-3 },
             |i| Interaction::Ref {
                 k: 0.1 + 1e-4 * i as f64,
@@ -4133,6 +4133,17 @@ mod tests {
             |_| Interaction::Fro { z: 0.02 },
             |i| Interaction::Fro {
                 z: 0.02 + 1e-4 * i as f64,
+            },
+            // (in contact on and off: the string is struck at 0.05 per sample)
+            |_| Interaction::But {
+                k: 0.1,
+                z: 1e-3,
+                s: 0.01,
+            },
+            |i| Interaction::But {
+                k: 0.1,
+                z: 1e-3,
+                s: 0.01 - 1e-4 * i as f64,
             },
         ];
         for n in [40, 67, 300] {
@@ -4165,6 +4176,12 @@ mod tests {
                 };
                 let scalar = render(Simd::None);
                 assert!(scalar.iter().any(|&v| v != 0));
+                if j >= 6 {
+                    // the BUT of the force output is in contact at some steps, not at others
+                    let force = scalar.iter().skip(1).step_by(2).map(|&v| f64::from_bits(v));
+                    let contact = force.clone().filter(|&f| f != 0.0).count();
+                    assert!(contact > 0 && contact < force.count(), "string {n}, law {j}");
+                }
                 #[cfg(target_arch = "x86_64")]
                 if let Some(cpu) = Avx512::detect() {
                     let e = Engine::new(&net);
