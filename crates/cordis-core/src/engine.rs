@@ -213,6 +213,8 @@ macro_rules! exact_pairs {
                 lf: &mut [f64],
             ) {
                 match pair {
+                    // (not `by_velocity`: the curves' look-ups do not vectorise in a chain's
+                    // lanes, 3.8x slower on the LNL string)
                     $(ExactPair::$v(ck, cz) => self.each(run, st, lf, |_, xa, pa, xb, pb| {
                         ck.eval(xa - xb) + cz.eval((xa - pa) - (xb - pb))
                     }),)*
@@ -1954,8 +1956,7 @@ impl Kernel {
         self.law_run::<L, S>(run, st, lf, |i| (lk[i], lz[i], ls[i]));
     }
 
-    /// A run of a law with parameters `(K, Z, S) = params(i)` for its `i`-th link: a chain (see
-    /// [`chain`]) with AVX-512, or [`Kernel::each`].
+    /// A run of a law with parameters `(K, Z, S) = params(i)` for its `i`-th link.
     #[inline(always)]
     fn law_run<L: LinkLaw, S: Sink>(
         &self,
@@ -1964,10 +1965,24 @@ impl Kernel {
         lf: &mut [f64],
         params: impl Fn(usize) -> (f64, f64, f64),
     ) {
-        let force = |i, xa, pa, xb, pb| {
+        self.by_velocity(run, st, lf, |i, xa, va, xb, vb| {
             let (k, z, s) = params(i);
-            L::force(k, z, s, xa, pa, xb, pb)
-        };
+            L::force(k, z, s, xa, va, xb, vb)
+        });
+    }
+
+    /// Runs `force(i, x1, x1 - x1', x2, x2 - x2')` for every link `i` of `run`, storing `f` into
+    /// `lf`: a chain (see [`chain`]) with AVX-512, or [`Kernel::each`] with the velocities
+    /// computed there, operand for operand.
+    #[inline(always)]
+    fn by_velocity<S: Sink>(
+        &self,
+        run: &Run,
+        st: &Positions<'_, S>,
+        lf: &mut [f64],
+        force: impl Fn(usize, f64, f64, f64, f64) -> f64,
+    ) {
+        let by_ends = |i, xa: f64, pa: f64, xb: f64, pb: f64| force(i, xa, xa - pa, xb, xb - pb);
         if let (
             Some(cpu),
             Ends::Step {
@@ -1981,15 +1996,12 @@ impl Kernel {
             if b0 == a0 + 1 && !S::ACCUMULATES {
                 let (n, a) = (run.end - run.start, a0 as usize);
                 let (x, xp) = (&st.x[a..a + n + 1], &st.xp[a..a + n + 1]);
-                chain(cpu, x, xp, &mut lf[..n], |i, xa, va, xb, vb| {
-                    let (k, z, s) = params(i);
-                    L::force_v(k, z, s, xa, va, xb, vb)
-                });
-                self.fix_links(run, st, lf, force);
+                chain(cpu, x, xp, &mut lf[..n], &force);
+                self.fix_links(run, st, lf, by_ends);
                 return;
             }
         }
-        self.each(run, st, lf, force);
+        self.each(run, st, lf, by_ends);
     }
 
     /// Runs `force(i, x1(n), x1(n-1), x2(n), x2(n-1))` for every link `i` of `run`, storing `f`
@@ -2458,9 +2470,11 @@ impl Kernel {
 /// The forces of a chain of links, link `i` from material `i` to material `i + 1` of `x`, `xp`
 /// (`x(n)`, `x(n-1)` of materials `0..=lf.len()`, consecutive storage slots): a string, or a
 /// membrane's rows joined. Each material's velocity `x - x'` is computed once, eight at a time,
-/// and serves as the `x1 - x1'` of one link and the `x2 - x2'` of the one before, so that
-/// `force(xa, va, xb, vb)` (a [`LinkLaw::force_v`]) gets the operands [`LinkLaw::force`] would
-/// compute from the positions: the same bits, with one subtraction and two loads fewer per link.
+/// and serves as the `x1 - x1'` of one link and the `x2 - x2'` of the one before: `force(i, xa,
+/// va, xb, vb)` (a [`LinkLaw::force`]) gets the operands [`Kernel::each`] gives it, the same bits,
+/// with one subtraction and two loads fewer per link (the next material's `x` and `v` are the
+/// block's lanes shifted by one). Used for RES, FRO, REF and BUT; not for LNL, whose curves'
+/// look-ups do not vectorise in these lanes.
 #[inline(always)]
 fn chain(
     cpu: Avx512,
@@ -2704,17 +2718,12 @@ impl Vectorised for Share<'_, '_> {
 }
 
 /// A link law with parameters `K`, `Z`, `S` (each law reads those it has), as a function of
-/// `(x1(n), x1(n-1), x2(n), x2(n-1))`, with the expressions of FORMALISM.md: `d = x1 - x2`,
-/// `v = (x1 - x1') - (x2 - x2')`.
+/// `(x1(n), v1, x2(n), v2)` with the velocities `v = x(n) - x(n-1)`, so that the expressions of
+/// FORMALISM.md, `d = x1 - x2` and `v = (x1 - x1') - (x2 - x2')`, are `xa - xb` and `va - vb`,
+/// operand for operand, whether each velocity is computed once per link end ([`Kernel::each`])
+/// or once per material ([`chain`]).
 trait LinkLaw {
-    /// The force from the ends' positions and velocities `va = x1 - x1'`, `vb = x2 - x2'`, so that
-    /// `(xa - pa) - (xb - pb)` is `va - vb`, operand for operand.
-    fn force_v(k: f64, z: f64, s: f64, xa: f64, va: f64, xb: f64, vb: f64) -> f64;
-
-    #[inline(always)]
-    fn force(k: f64, z: f64, s: f64, xa: f64, pa: f64, xb: f64, pb: f64) -> f64 {
-        Self::force_v(k, z, s, xa, xa - pa, xb, xb - pb)
-    }
+    fn force(k: f64, z: f64, s: f64, xa: f64, va: f64, xb: f64, vb: f64) -> f64;
 }
 
 struct ResLaw;
@@ -2725,11 +2734,6 @@ struct ButLaw;
 
 impl LinkLaw for ResLaw {
     #[inline(always)]
-    fn force_v(k: f64, _: f64, _: f64, xa: f64, _: f64, xb: f64, _: f64) -> f64 {
-        k * (xa - xb)
-    }
-
-    #[inline(always)]
     fn force(k: f64, _: f64, _: f64, xa: f64, _: f64, xb: f64, _: f64) -> f64 {
         k * (xa - xb)
     }
@@ -2737,21 +2741,21 @@ impl LinkLaw for ResLaw {
 
 impl LinkLaw for FroLaw {
     #[inline(always)]
-    fn force_v(_: f64, z: f64, _: f64, _: f64, va: f64, _: f64, vb: f64) -> f64 {
+    fn force(_: f64, z: f64, _: f64, _: f64, va: f64, _: f64, vb: f64) -> f64 {
         z * (va - vb)
     }
 }
 
 impl LinkLaw for RefLaw {
     #[inline(always)]
-    fn force_v(k: f64, z: f64, _: f64, xa: f64, va: f64, xb: f64, vb: f64) -> f64 {
+    fn force(k: f64, z: f64, _: f64, xa: f64, va: f64, xb: f64, vb: f64) -> f64 {
         k * (xa - xb) + z * (va - vb)
     }
 }
 
 impl LinkLaw for ButLaw {
     #[inline(always)]
-    fn force_v(k: f64, z: f64, s: f64, xa: f64, va: f64, xb: f64, vb: f64) -> f64 {
+    fn force(k: f64, z: f64, s: f64, xa: f64, va: f64, xb: f64, vb: f64) -> f64 {
         // (computed in both cases, then chosen: a select the vector loops make a blend)
         let f = k * ((xa - xb) + s) + z * (va - vb);
         if xb - xa < s {
@@ -4072,7 +4076,7 @@ mod tests {
         }
     }
 
-    /// [`chain`] gives each link the force [`LinkLaw::force`] computes from its ends' positions,
+    /// [`chain`] gives each link the force [`LinkLaw::force`] of its ends' positions and velocities,
     /// bit for bit, for every law, every length (every remainder of 8, and shorter than one
     /// block), with per-link parameters, and writes nothing past the last link.
     #[test]
@@ -4100,10 +4104,11 @@ mod tests {
                 let n = k.len();
                 let mut lf = vec![f64::NAN; n + 9];
                 chain(cpu, x, xp, &mut lf[..n], |i, xa, va, xb, vb| {
-                    L::force_v(k[i], z[i], s[i], xa, va, xb, vb)
+                    L::force(k[i], z[i], s[i], xa, va, xb, vb)
                 });
                 for i in 0..n {
-                    let want = L::force(k[i], z[i], s[i], x[i], xp[i], x[i + 1], xp[i + 1]);
+                    let (va, vb) = (x[i] - xp[i], x[i + 1] - xp[i + 1]);
+                    let want = L::force(k[i], z[i], s[i], x[i], va, x[i + 1], vb);
                     assert_eq!(lf[i].to_bits(), want.to_bits(), "link {i} of {n}");
                 }
                 assert!(lf[n..].iter().all(|f| f.is_nan()), "written past {n} links");
@@ -4180,7 +4185,10 @@ mod tests {
                     // the BUT of the force output is in contact at some steps, not at others
                     let force = scalar.iter().skip(1).step_by(2).map(|&v| f64::from_bits(v));
                     let contact = force.clone().filter(|&f| f != 0.0).count();
-                    assert!(contact > 0 && contact < force.count(), "string {n}, law {j}");
+                    assert!(
+                        contact > 0 && contact < force.count(),
+                        "string {n}, law {j}"
+                    );
                 }
                 #[cfg(target_arch = "x86_64")]
                 if let Some(cpu) = Avx512::detect() {
