@@ -1908,8 +1908,9 @@ impl Kernel {
     fn run_links(&self, run: &Run, st: &Positions<'_, impl Sink>, lf: &mut [f64]) {
         let r = run.start..run.end;
         let s0 = run.start;
-        // Each law as a function of (x1(n), x1(n-1), x2(n), x2(n-1)), with the expressions of
-        // FORMALISM.md: d = x1 - x2, v = (x1 - x1') - (x2 - x2').
+        // Each law with the expressions of FORMALISM.md, d = x1 - x2 and v = (x1 - x1') - (x2 -
+        // x2'): from the ends' positions (LNL), or from their positions and velocities (the
+        // `LinkLaw`s, see `Kernel::by_velocity`).
         match (run.law, run.uniform) {
             (Law::Res, true) => self.uniform::<ResLaw, _>(run, st, lf),
             (Law::Fro, true) => self.uniform::<FroLaw, _>(run, st, lf),
