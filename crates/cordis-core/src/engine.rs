@@ -50,6 +50,7 @@ use crate::lanes::{Avx512, LANES};
 use crate::parallel::{Poisoned, Pool, SharedBuf, SpinBarrier, Task};
 use crate::{Curve, Interaction, LinkId, MatId, Material, Network, Output, Probe, Signal};
 
+mod grid;
 mod pull;
 
 /// The law of a run of consecutive links (in declaration order) that share it.
@@ -419,6 +420,10 @@ struct Kernel {
     pull: Option<Box<pull::Pull>>,
     /// one share of the pull step per thread (see `Engine::set_threads`)
     pull_shares: Vec<pull::Share>,
+    /// the grid step, when the network is a membrane it takes (see `engine/grid.rs`)
+    grid: Option<Box<grid::Grid>>,
+    /// the rows of the grid step of each thread (see `Engine::set_threads`)
+    grid_shares: Vec<Range<usize>>,
 }
 
 /// The state that stepping changes.
@@ -437,6 +442,8 @@ struct State {
     blown: Option<BlowUp>,
     /// `F(n)` of each material while a compact step accumulates it (empty otherwise)
     acc: Vec<f64>,
+    /// the row buffers of the grid step, `Grid::scratch_len` per thread (empty without one)
+    grid: Vec<f64>,
     /// `(x, x - x')` of each material, for the pull step: one buffer for step `n`, one for `n + 1`
     /// (empty without a pull step)
     pairs: [Vec<[f64; 2]>; 2],
@@ -594,6 +601,7 @@ impl Engine {
             blown: None,
             acc: vec![0.0; if k.compact { k.nm } else { 0 }],
             pairs: [(); 2].map(|()| vec![[0.0; 2]; if k.pull.is_some() { nm } else { 0 }]),
+            grid: vec![0.0; k.grid.as_ref().map_or(0, |g| g.scratch_len())],
         };
         st.reset(&k);
         Engine {
@@ -622,6 +630,7 @@ impl Engine {
             self.threads = threads;
             self.k.parts = self.k.partition(threads, self.st.line());
             self.k.pull_shares = self.k.pull_partition(threads);
+            self.grid_partition();
             self.pool = PoolSlot(None);
         }
         self.start_pool();
@@ -656,6 +665,14 @@ impl Engine {
         self.threads > 1 && self.k.nm + self.k.nl >= self.parallel_threshold.saturating_mul(factor)
     }
 
+    /// The grid step's rows and row buffers for [`Engine::threads`] threads.
+    fn grid_partition(&mut self) {
+        if let Some(g) = self.k.grid.as_deref() {
+            self.k.grid_shares = g.partition(self.threads);
+            self.st.grid.resize(self.threads * g.scratch_len(), 0.0);
+        }
+    }
+
     fn start_pool(&mut self) {
         if !self.is_parallel() {
             self.pool = PoolSlot(None);
@@ -663,6 +680,7 @@ impl Engine {
             // (a clone has its own buffers, aligned differently: cut the parts for them)
             self.k.parts = self.k.partition(self.threads, self.st.line());
             self.k.pull_shares = self.k.pull_partition(self.threads);
+            self.grid_partition();
             self.pool = PoolSlot(Some(Threads {
                 pool: Pool::new(self.threads),
                 claims: (0..2 * self.threads).map(|_| Claim::default()).collect(),
@@ -717,7 +735,9 @@ impl Engine {
     /// If `out.len() != frames * self.channels()`.
     #[track_caller]
     pub fn process(&mut self, frames: usize, out: &mut [f64]) -> Result<(), BlowUp> {
-        if self.is_parallel() && frames > 0 && self.st.blown.is_none() {
+        if self.k.grid.is_some() && frames > 0 && self.st.blown.is_none() {
+            self.process_grid(frames, out)
+        } else if self.is_parallel() && frames > 0 && self.st.blown.is_none() {
             if self.k.pull.is_some() {
                 self.process_pull_parallel(frames, out)
             } else {
@@ -885,6 +905,55 @@ impl Engine {
         };
         self.drop_pool_if_failed(result);
         self.st.set_step(n0 + frames as u64);
+        self.check_block(n0, frames, out)?;
+        self.restore_link_forces();
+        Ok(())
+    }
+
+    /// [`Engine::process`] with the grid step, on the pool's threads when [`Engine::is_parallel`].
+    #[track_caller]
+    fn process_grid(&mut self, frames: usize, out: &mut [f64]) -> Result<(), BlowUp> {
+        assert_eq!(
+            out.len(),
+            frames * self.k.channels.len(),
+            "output buffer must hold frames * channels values"
+        );
+        self.st.take_snapshot(self.k.n_mce);
+        let (n0, c0) = (self.st.n, self.st.c);
+        if self.is_parallel() {
+            self.start_pool(); // only a clone, or an engine after a worker panic, has none yet
+            let Some(grid) = self.k.grid.as_deref() else {
+                unreachable!("process takes the grid step only when there is one")
+            };
+            let result = {
+                let Some(Threads { pool, .. }) = self.pool.0.as_ref() else {
+                    unreachable!("start_pool starts a pool when is_parallel")
+                };
+                let [p0, p1, p2] = &mut self.st.pos;
+                // The job borrows the state buffers mutably until `pool.run` returns, which is
+                // after every thread is done with them; nothing else touches them meanwhile.
+                let job = grid::GridJob {
+                    k: &self.k,
+                    grid,
+                    shares: &self.k.grid_shares,
+                    pos: [SharedBuf::new(p0), SharedBuf::new(p1), SharedBuf::new(p2)],
+                    sf: SharedBuf::new(&mut self.st.sf),
+                    scratch: SharedBuf::new(&mut self.st.grid),
+                    n0,
+                    c0,
+                    frames,
+                };
+                assert_eq!(job.shares.len(), pool.threads());
+                pool.run_steps(&job, |barrier| job.run_share(0, Some(out), barrier))
+            };
+            self.drop_pool_if_failed(result);
+            self.st.set_step(n0 + frames as u64);
+        } else {
+            let Some(grid) = self.k.grid.as_deref() else {
+                unreachable!("process takes the grid step only when there is one")
+            };
+            grid.block(&self.k, &mut self.st, frames, out);
+        }
         self.check_block(n0, frames, out)?;
         self.restore_link_forces();
         Ok(())
@@ -1066,11 +1135,17 @@ impl Kernel {
     /// A network of RES, FRO and REF links without locality (one that takes the compact step,
     /// whose links are scattered, or whose links and MAS are mostly read through index lists)
     /// also gets the pull step (`engine/pull.rs`) when the CPU has AVX-512: [`Engine::process`]
-    /// then takes it, on one thread or on the pool's (`pull::PullJob`).
+    /// then takes it, on one thread or on the pool's (`pull::PullJob`). A membrane of one REF
+    /// law and one inertia whose border MAS are tied to SOL in place of their missing neighbours
+    /// gets the grid step instead (`engine/grid.rs`, `grid::GridJob`), which keeps every force in
+    /// registers.
     #[track_caller]
     fn new(net: &Network) -> Kernel {
         let mut k = Kernel::choose(net);
-        if k.compact || k.scattered || k.mostly_indexed() {
+        k.grid = grid::Grid::new(&k).map(Box::new);
+        if let Some(g) = &k.grid {
+            k.grid_shares = g.partition(1);
+        } else if k.compact || k.scattered || k.mostly_indexed() {
             k.pull = pull::Pull::new(&k).map(Box::new);
         }
         k
@@ -1602,6 +1677,8 @@ impl Kernel {
             mas_fix,
             pull: None,
             pull_shares: Vec::new(),
+            grid: None,
+            grid_shares: Vec::new(),
         };
         // (a link to a SOL reads a position nobody writes; the others are local when their ends
         // are within [`NEAR`] slots of each other in storage)
@@ -2116,6 +2193,54 @@ impl Kernel {
 
     /// Outputs record `x(n)` and `f(n)`.
     #[inline(always)]
+    /// The links the outputs read (SOF and sums of them), each a run of its own, for the steps
+    /// that keep no force buffer (the pull and grid steps): `None` if one is in no run.
+    fn recorded_links(&self) -> Option<Vec<Run>> {
+        let mut recorded: Vec<usize> = Vec::new();
+        for c in &self.channels {
+            match *c {
+                Channel::Force(l) => recorded.push(l as usize),
+                Channel::Sum(a, b) => {
+                    recorded.extend(self.sum_terms[a..b].iter().filter_map(|(_, t)| match *t {
+                        Term::Force(l) => Some(l as usize),
+                        Term::Position(_) => None,
+                    }))
+                }
+                Channel::Position(_) => {}
+            }
+        }
+        recorded.sort_unstable();
+        recorded.dedup();
+        let mut runs = Vec::with_capacity(recorded.len());
+        for l in recorded {
+            let run = (self.whole.runs.iter()).find(|r| (r.start..r.end).contains(&l))?;
+            // (read through the index lists: a progression's cut could land on an exception)
+            runs.push(Run {
+                ends: Ends::Indexed,
+                ..run.cut(l, l + 1)
+            });
+        }
+        Some(runs)
+    }
+
+    /// The outputs of a step of the pull or grid step: the forces of the `recorded` links (see
+    /// [`Kernel::recorded_links`]) into `sf`, then `frame`.
+    #[inline]
+    fn record_with(
+        &self,
+        recorded: &[Run],
+        cur: &[f64],
+        prev: &[f64],
+        sf: &mut [f64],
+        frame: &mut [f64],
+    ) {
+        let state = Positions::new(self, cur, prev);
+        for run in recorded {
+            self.run_links(run, &state, &mut sf[run.start..run.end]);
+        }
+        self.record(cur, &sf[..self.nl], frame);
+    }
+
     fn record(&self, x: &[f64], lf: &[f64], frame: &mut [f64]) {
         let terms = &self.sum_terms;
         let term = |t: &Term| match *t {
@@ -4074,6 +4199,78 @@ mod tests {
                 assert!(threads.is_parallel());
                 assert!(one == outputs(&mut threads), "{rows}x{cols}, 3 threads");
             }
+        }
+    }
+
+    /// The grid step is taken for the membranes it fits (`engine/grid.rs`) and for nothing else,
+    /// and gives the gather step's bits: every output and, after each block, every link force.
+    #[test]
+    fn the_grid_step_takes_only_membranes_and_gives_the_gather_bits() {
+        if Avx512::detect().is_none() {
+            // (the grid step needs AVX-512: without it no network takes it)
+            assert!(Engine::new(&membrane(4, 20, |_| 1.0)).k.grid.is_none());
+            return;
+        }
+        let taken = |net: &Network| Engine::new(net).k.grid.is_some();
+        for (rows, cols) in [(2, 16), (3, 17), (9, 24), (7, 100)] {
+            assert!(taken(&membrane(rows, cols, |_| 1.0)), "{rows}x{cols}");
+            assert!(taken(&membrane(rows, cols, |_| 1.5)), "{rows}x{cols}");
+        }
+        // too narrow, one row, per-MAS inertias
+        assert!(!taken(&membrane(6, 15, |_| 1.0)));
+        assert!(!taken(&membrane(1, 40, |_| 1.0)));
+        assert!(!taken(&membrane(6, 20, |i| [0.5, 1.0][i % 2])));
+        // one link of another stiffness, of another law; a link more; a free border
+        let changed = |at: usize, law: Interaction| {
+            let mut net = membrane(6, 20, |_| 1.0);
+            net.links[at].law = law;
+            net
+        };
+        assert!(!taken(&changed(50, Interaction::Ref { k: 0.2, z: 1e-4 })));
+        assert!(!taken(&changed(3, Interaction::Res { k: 0.1 })));
+        let but = Interaction::But {
+            k: 0.1,
+            z: 1e-4,
+            s: 1.0,
+        };
+        assert!(!taken(&changed(70, but)));
+        let mut extra = membrane(6, 20, |_| 1.0);
+        extra.add_link(Interaction::Ref { k: 0.1, z: 1e-4 }, MatId(3), MatId(44));
+        assert!(!taken(&extra));
+        let mut struck = membrane(6, 20, |_| 1.0);
+        struck.add_force(MatId(30), Signal::Impulse { at: 9, amp: 0.1 });
+        assert!(!taken(&struck));
+        let mut free = membrane(6, 20, |_| 1.0);
+        free.links.remove(0);
+        assert!(!taken(&free));
+        for (rows, cols, m) in [(3, 17, 1.0), (9, 24, 1.5), (12, 33, 0.25), (7, 100, 1.0)] {
+            let mut net = membrane(rows, cols, |_| m);
+            let last = LinkId(net.links.len() as u32 - 1);
+            net.add_force_output(last);
+            // (on the last MAS, which the inputs leave in its storage slot: a MAS with more
+            // terms than its row is stored after the others, and the grid step not taken)
+            let last_mas = MatId((rows * cols) as u32 - 1);
+            net.add_force(last_mas, Signal::Impulse { at: 9, amp: 0.1 });
+            net.add_force(last_mas, Signal::Constant(1e-4));
+            let mut grid = Engine::new(&net);
+            assert!(grid.k.grid.is_some(), "{rows}x{cols}");
+            let mut gather = grid.clone();
+            gather.k.grid = None;
+            let mut moved = false;
+            for block in [1, 97, 1024, 5] {
+                let mut a = vec![0.0; block * grid.channels()];
+                let mut b = a.clone();
+                grid.process(block, &mut a).unwrap();
+                gather.process(block, &mut b).unwrap();
+                let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+                assert!(bits(&a) == bits(&b), "{rows}x{cols}, block {block}");
+                moved |= a.iter().any(|&v| v != 0.0);
+                for l in 0..net.links.len() {
+                    let l = LinkId(l as u32);
+                    assert_eq!(grid.link_force(l).to_bits(), gather.link_force(l).to_bits());
+                }
+            }
+            assert!(moved, "{rows}x{cols}: the outputs never moved");
         }
     }
 

@@ -439,3 +439,24 @@ fn a_blow_up_is_reported_at_the_same_step_and_module_with_threads() {
         }
     }
 }
+
+/// Membranes of the grid step's kind (on an AVX-512 CPU: one barrier per step, each thread its
+/// consecutive rows, the first recomputing the links up from the row above), as many threads as
+/// rows or more.
+#[test]
+fn grid_membranes_match_on_any_thread_count_and_block_size() {
+    for (seed, rows, cols, m, steps) in [
+        (1, 3, 16, 1.0, 300),
+        (2, 40, 37, 1.5, 400),
+        (3, 100, 100, 0.5, 150),
+    ] {
+        let net = grid_membrane(seed, rows, cols, m, seed == 2, true);
+        let expected = single_thread_checked(&net, steps);
+        check_all(
+            &net,
+            steps,
+            &expected,
+            &format!("grid membrane {rows}x{cols}"),
+        );
+    }
+}

@@ -46,7 +46,7 @@ use std::ops::Range;
 
 use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
 
-use super::{Channel, Ends, Kernel, Law, MasLaw, Positions, Roles, Run, State, Term, NEG};
+use super::{Kernel, Law, MasLaw, Roles, Run, State, NEG};
 use crate::lanes::Avx512;
 
 /// MAS per group: the lanes of one AVX-512 vector.
@@ -199,29 +199,7 @@ impl Pull {
             }));
             p.cel_off.push(p.cel_terms.len() as u32);
         }
-        let mut recorded: Vec<usize> = Vec::new();
-        for c in &k.channels {
-            match *c {
-                Channel::Force(l) => recorded.push(l as usize),
-                Channel::Sum(a, b) => {
-                    recorded.extend(k.sum_terms[a..b].iter().filter_map(|(_, t)| match *t {
-                        Term::Force(l) => Some(l as usize),
-                        Term::Position(_) => None,
-                    }))
-                }
-                Channel::Position(_) => {}
-            }
-        }
-        recorded.sort_unstable();
-        recorded.dedup();
-        for l in recorded {
-            let run = (k.whole.runs.iter()).find(|r| (r.start..r.end).contains(&l))?;
-            // (read through the index lists: a progression's cut could land on an exception)
-            p.recorded.push(Run {
-                ends: Ends::Indexed,
-                ..run.cut(l, l + 1)
-            });
-        }
+        p.recorded = k.recorded_links()?;
         assert!(p.cel_terms.iter().all(|t| match *t {
             CelTerm::Link(j, ..) => (j as usize) < k.nm,
             CelTerm::Input(i) => (i as usize) < k.enf.len(),
@@ -317,11 +295,7 @@ impl Pull {
         sf: &mut [f64],
         frame: &mut [f64],
     ) {
-        let state = Positions::new(k, cur, prev);
-        for run in &self.recorded {
-            k.run_links(run, &state, &mut sf[run.start..run.end]);
-        }
-        k.record(cur, &sf[..k.nl], frame);
+        k.record_with(&self.recorded, cur, prev, sf, frame);
     }
 
     /// Step `n` of `share`: `x(n+1)` of its moving materials into `next` and their pairs into

@@ -2,7 +2,7 @@
 #![allow(clippy::unwrap_used)] // tests and benches may panic on failure
 #![allow(dead_code)]
 
-use cordis_core::{Curve, Interaction, Material, Network, Output, Probe, Signal};
+use cordis_core::{Curve, Interaction, MatId, Material, Network, Output, Probe, Signal};
 
 /// Linear-scan curve evaluation, written independently of `Curve::eval`.
 pub fn curve_ref(points: &[(f64, f64)], x: f64) -> f64 {
@@ -403,6 +403,93 @@ pub fn spring_network(
     net.add_sum_output(vec![
         (0.5, Probe::Position(ids[1])),
         (-2.0, Probe::Force(cordis_core::LinkId(3))),
+    ]);
+    net
+}
+
+/// A membrane the grid step takes (`engine/grid.rs`): `rows x cols` MAS of inertia `m`, row by
+/// row, each tied by REF links of one K and Z to its four neighbours, and a border MAS to a SOL
+/// in place of each missing one (declared as the C baseline kit does: each row's links from its
+/// left SOL to its right one, then each column's from its top SOL to its bottom one). The SOL sit
+/// at seeded positions, one per border link or one for all (`shared_rim`); every MAS starts at a
+/// seeded position and some with a velocity. With `inputs`, two ENF on the last MAS (which they
+/// leave in its storage slot: on another MAS they would move it, and the grid step not be taken).
+/// Outputs:
+/// SOX on five MAS, SOF on a horizontal, a vertical and a border link, and a sum of a position and
+/// a force.
+pub fn grid_membrane(
+    seed: u64,
+    rows: usize,
+    cols: usize,
+    m: f64,
+    shared_rim: bool,
+    inputs: bool,
+) -> Network {
+    let mut rng = Lcg(seed);
+    let mut net = Network::new();
+    let ids: Vec<MatId> = (0..rows * cols)
+        .map(|i| {
+            let v0 = if i % 7 == 3 {
+                1e-3 * (rng.next_f64() - 0.5)
+            } else {
+                0.0
+            };
+            let x0 = 1e-3 * (rng.next_f64() - 0.5);
+            net.add_material(Material::Mas { m, x0, v0 })
+        })
+        .collect();
+    let rim = net.add_material(Material::Sol { x0: 1e-3 });
+    let mut ground = |net: &mut Network| {
+        if shared_rim {
+            rim
+        } else {
+            let x0 = 1e-3 * (rng.next_f64() - 0.5);
+            net.add_material(Material::Sol { x0 })
+        }
+    };
+    let at = |r: usize, c: usize| ids[r * cols + c];
+    let law = Interaction::Ref { k: 0.13, z: 2e-3 };
+    let mut links = Vec::new();
+    for r in 0..rows {
+        let g = ground(&mut net);
+        links.push(net.add_link(law.clone(), g, at(r, 0)));
+        for c in 0..cols - 1 {
+            links.push(net.add_link(law.clone(), at(r, c), at(r, c + 1)));
+        }
+        let g = ground(&mut net);
+        links.push(net.add_link(law.clone(), at(r, cols - 1), g));
+    }
+    for c in 0..cols {
+        let g = ground(&mut net);
+        links.push(net.add_link(law.clone(), g, at(0, c)));
+        for r in 0..rows - 1 {
+            links.push(net.add_link(law.clone(), at(r, c), at(r + 1, c)));
+        }
+        let g = ground(&mut net);
+        links.push(net.add_link(law.clone(), at(rows - 1, c), g));
+    }
+    if inputs {
+        net.add_force(at(rows - 1, cols - 1), Signal::Constant(1e-5));
+        net.add_force(
+            at(rows - 1, cols - 1),
+            Signal::Impulse { at: 40, amp: -0.02 },
+        );
+    }
+    for (r, c) in [
+        (0, 0),
+        (rows / 2, cols / 2),
+        (rows - 1, cols - 1),
+        (1, cols - 2),
+        (rows / 2, 9),
+    ] {
+        net.add_position_output(at(r, c));
+    }
+    for l in [links[3], links[rows * (cols + 1) + 2], links[cols]] {
+        net.add_force_output(l);
+    }
+    net.add_sum_output(vec![
+        (2.0, Probe::Position(at(1, 1))),
+        (-0.5, Probe::Force(links[1])),
     ]);
     net
 }
