@@ -1244,20 +1244,16 @@ impl Kernel {
             Material::Enx { .. } => 2,
             Material::Sol { .. } => 3,
         };
-        // Degree of each material (its link ends, and its ENF inputs when it is mobile): mobile
-        // materials are grouped by degree within their kind so that the gather runs in segments of
-        // one degree (fixed-length, branch-free sums; see `Kernel::update_mas`).
+        // Degree of each material (its link ends): mobile materials are grouped by degree within
+        // their kind so that the gather runs in segments of one degree (fixed-length, branch-free
+        // sums; see `Kernel::update_mas`). ENF inputs are not counted: a MAS struck by one stays
+        // among its neighbours (in its membrane's row: see `engine/grid.rs`), a segment of its own.
         let mut degree = vec![0usize; nm];
         for link in &net.links {
             for id in [link.a, link.b] {
                 if let Some(d) = degree.get_mut(id.index()) {
                     *d += 1;
                 }
-            }
-        }
-        for fi in &net.forces {
-            if let Some(d) = degree.get_mut(fi.target.index()) {
-                *d += 1;
             }
         }
         let mut order: Vec<usize> = (0..nm).collect();
@@ -4220,7 +4216,7 @@ mod tests {
         assert!(!taken(&membrane(6, 15, |_| 1.0)));
         assert!(!taken(&membrane(1, 40, |_| 1.0)));
         assert!(!taken(&membrane(6, 20, |i| [0.5, 1.0][i % 2])));
-        // one link of another stiffness, of another law; a link more; a free border
+        // one link of another stiffness, of another law; a link more (a hammer's); a free border
         let changed = |at: usize, law: Interaction| {
             let mut net = membrane(6, 20, |_| 1.0);
             net.links[at].law = law;
@@ -4237,9 +4233,10 @@ mod tests {
         let mut extra = membrane(6, 20, |_| 1.0);
         extra.add_link(Interaction::Ref { k: 0.1, z: 1e-4 }, MatId(3), MatId(44));
         assert!(!taken(&extra));
+        // (an ENF input leaves its MAS in its row)
         let mut struck = membrane(6, 20, |_| 1.0);
         struck.add_force(MatId(30), Signal::Impulse { at: 9, amp: 0.1 });
-        assert!(!taken(&struck));
+        assert!(taken(&struck));
         let mut free = membrane(6, 20, |_| 1.0);
         free.links.remove(0);
         assert!(!taken(&free));
@@ -4247,11 +4244,9 @@ mod tests {
             let mut net = membrane(rows, cols, |_| m);
             let last = LinkId(net.links.len() as u32 - 1);
             net.add_force_output(last);
-            // (on the last MAS, which the inputs leave in its storage slot: a MAS with more
-            // terms than its row is stored after the others, and the grid step not taken)
-            let last_mas = MatId((rows * cols) as u32 - 1);
-            net.add_force(last_mas, Signal::Impulse { at: 9, amp: 0.1 });
-            net.add_force(last_mas, Signal::Constant(1e-4));
+            net.add_force(MatId(cols as u32 + 5), Signal::Impulse { at: 9, amp: 0.1 });
+            net.add_force(MatId(cols as u32 + 5), Signal::Constant(1e-4));
+            net.add_force(MatId(0), Signal::Impulse { at: 30, amp: -0.1 });
             let mut grid = Engine::new(&net);
             assert!(grid.k.grid.is_some(), "{rows}x{cols}");
             let mut gather = grid.clone();

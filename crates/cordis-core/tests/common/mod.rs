@@ -412,8 +412,7 @@ pub fn spring_network(
 /// in place of each missing one (declared as the C baseline kit does: each row's links from its
 /// left SOL to its right one, then each column's from its top SOL to its bottom one). The SOL sit
 /// at seeded positions, one per border link or one for all (`shared_rim`); every MAS starts at a
-/// seeded position and some with a velocity. With `inputs`, two ENF on the last MAS (which they
-/// leave in its storage slot: on another MAS they would move it, and the grid step not be taken).
+/// seeded position and some with a velocity. With `inputs`, ENF on two MAS (two on one).
 /// Outputs:
 /// SOX on five MAS, SOF on a horizontal, a vertical and a border link, and a sum of a position and
 /// a force.
@@ -469,6 +468,7 @@ pub fn grid_membrane(
         links.push(net.add_link(law.clone(), at(rows - 1, c), g));
     }
     if inputs {
+        net.add_force(at(rows / 2, 1), Signal::Impulse { at: 3, amp: 0.01 });
         net.add_force(at(rows - 1, cols - 1), Signal::Constant(1e-5));
         net.add_force(
             at(rows - 1, cols - 1),
