@@ -920,11 +920,14 @@ impl Engine {
         );
         self.st.take_snapshot(self.k.n_mce);
         let (n0, c0) = (self.st.n, self.st.c);
-        if self.is_parallel() {
+        let parallel = self.is_parallel();
+        if parallel {
             self.start_pool(); // only a clone, or an engine after a worker panic, has none yet
-            let Some(grid) = self.k.grid.as_deref() else {
-                unreachable!("process takes the grid step only when there is one")
-            };
+        }
+        let Some(grid) = self.k.grid.as_deref() else {
+            unreachable!("process takes the grid step only when there is one")
+        };
+        if parallel {
             let result = {
                 let Some(Threads { pool, .. }) = self.pool.0.as_ref() else {
                     unreachable!("start_pool starts a pool when is_parallel")
@@ -949,9 +952,6 @@ impl Engine {
             self.drop_pool_if_failed(result);
             self.st.set_step(n0 + frames as u64);
         } else {
-            let Some(grid) = self.k.grid.as_deref() else {
-                unreachable!("process takes the grid step only when there is one")
-            };
             grid.block(&self.k, &mut self.st, frames, out);
         }
         self.check_block(n0, frames, out)?;
@@ -1143,9 +1143,7 @@ impl Kernel {
     fn new(net: &Network) -> Kernel {
         let mut k = Kernel::choose(net);
         k.grid = grid::Grid::new(&k).map(Box::new);
-        if let Some(g) = &k.grid {
-            k.grid_shares = g.partition(1);
-        } else if k.compact || k.scattered || k.mostly_indexed() {
+        if k.grid.is_none() && (k.compact || k.scattered || k.mostly_indexed()) {
             k.pull = pull::Pull::new(&k).map(Box::new);
         }
         k
@@ -2187,8 +2185,6 @@ impl Kernel {
         &list[from..to]
     }
 
-    /// Outputs record `x(n)` and `f(n)`.
-    #[inline(always)]
     /// The links the outputs read (SOF and sums of them), each a run of its own, for the steps
     /// that keep no force buffer (the pull and grid steps): `None` if one is in no run.
     fn recorded_links(&self) -> Option<Vec<Run>> {
@@ -2237,6 +2233,8 @@ impl Kernel {
         self.record(cur, &sf[..self.nl], frame);
     }
 
+    /// Outputs record `x(n)` and `f(n)`.
+    #[inline(always)]
     fn record(&self, x: &[f64], lf: &[f64], frame: &mut [f64]) {
         let terms = &self.sum_terms;
         let term = |t: &Term| match *t {

@@ -85,10 +85,6 @@ impl Grid {
             MasLaw::UniformDiv(m) => (m, true),
             _ => return None,
         };
-        let mut law = vec![Law::Ref; k.nl];
-        for run in &k.whole.runs {
-            law[run.start..run.end].fill(run.law);
-        }
         let edges = |s: usize| &k.eidx[k.eoff[s] as usize..k.eoff[s + 1] as usize];
         // the link below MAS 0 gives the width
         let &below0 = edges(0).get(3)?;
@@ -100,6 +96,10 @@ impl Grid {
             return None;
         }
         let rows = n / cols;
+        let mut law = vec![Law::Ref; k.nl];
+        for run in &k.whole.runs {
+            law[run.start..run.end].fill(run.law);
+        }
         let first = (edges(0)[0] & !NEG) as usize;
         let (kk, zz) = (*k.lk.get(first)?, *k.lz.get(first)?);
         let mut g = Grid {
@@ -149,44 +149,31 @@ impl Grid {
             if k.lb[l] != s32 || k.la[rt] != s32 || k.lb[u] != s32 || k.la[d] != s32 {
                 return None;
             }
-            // each end: the neighbour (by the same link as its own term) or a SOL
+            // each other end: the neighbour (`inner`, checked by `is_neighbour`), else a SOL,
+            // returned
+            let end = |inner: bool, is_neighbour: &dyn Fn() -> bool, other: u32| {
+                if inner {
+                    is_neighbour().then_some(None)
+                } else {
+                    sol(other).then_some(Some(other))
+                }
+            };
+            // (left and up: the neighbour's term is the same link)
             let (a, b) = (k.la[l], k.lb[rt]);
-            if c > 0 {
-                if a != s32 - 1 || link(edges(s - 1)[1]) != l {
-                    return None;
-                }
-            } else if sol(a) {
-                g.left[r] = a;
-            } else {
-                return None;
+            let left = || a == s32 - 1 && link(edges(s - 1)[1]) == l;
+            if let Some(ground) = end(c > 0, &left, a)? {
+                g.left[r] = ground;
             }
-            if c + 1 < cols {
-                if b != s32 + 1 {
-                    return None;
-                }
-            } else if sol(b) {
-                g.right[r] = b;
-            } else {
-                return None;
+            if let Some(ground) = end(c + 1 < cols, &|| b == s32 + 1, b)? {
+                g.right[r] = ground;
             }
             let (a, b) = (k.la[u], k.lb[d]);
-            if r > 0 {
-                if a as usize != s - cols || link(edges(s - cols)[3]) != u {
-                    return None;
-                }
-            } else if sol(a) {
-                g.top[c] = a;
-            } else {
-                return None;
+            let up = || a as usize == s - cols && link(edges(s - cols)[3]) == u;
+            if let Some(ground) = end(r > 0, &up, a)? {
+                g.top[c] = ground;
             }
-            if r + 1 < rows {
-                if b as usize != s + cols {
-                    return None;
-                }
-            } else if sol(b) {
-                g.bottom[c] = b;
-            } else {
-                return None;
+            if let Some(ground) = end(r + 1 < rows, &|| b as usize == s + cols, b)? {
+                g.bottom[c] = ground;
             }
         }
         Some(g)
@@ -330,7 +317,7 @@ impl Grid {
     }
 
     fn row_for_cpu(&self, r: usize, args: RowArgs<'_>) {
-        let _ = self.cpu;
+        debug_assert_eq!(Some(self.cpu), Avx512::detect());
         #[cfg(target_arch = "x86_64")]
         // SAFETY: `self.cpu` exists, so the CPU has AVX-512F (see `Avx512::detect`).
         unsafe {
@@ -454,11 +441,7 @@ impl Grid {
             let d = link(x0, v0, xd[c], v);
             let f = 0.0 + hl - h + up[c] - d;
             up[c] = d;
-            next[c] = if DIV {
-                by_div(x0, pr[c], f, self.m)
-            } else {
-                by_inv(x0, pr[c], f, self.m)
-            };
+            next[c] = self.update(x0, pr[c], f);
             hl = h;
         }
     }
