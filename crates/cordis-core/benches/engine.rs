@@ -83,6 +83,8 @@ impl Law {
 enum Spec {
     String(usize, Law),
     Membrane(usize, usize),
+    /// A membrane laid out as the language's `membrane` generator declares it.
+    Rimmed(usize, usize),
     Random(usize),
 }
 
@@ -183,6 +185,48 @@ fn membrane(rows: usize, cols: usize) -> Model {
     }
 }
 
+/// [`membrane`] laid out as the language's `membrane` generator declares it (docs/LANGUAGE.md):
+/// the horizontal links row by row, the vertical links row by row, then one rim (`sol`) and a link
+/// from it to each edge mass per missing neighbour, row by row. Struck and observed as `membrane`.
+fn rimmed(rows: usize, cols: usize) -> Model {
+    let mut net = Network::new();
+    let mut idx = Vec::with_capacity(rows * cols);
+    for r in 0..rows {
+        for c in 0..cols {
+            idx.push(mass(&mut net, if (r, c) == (2, 2) { V0 } else { 0.0 }));
+        }
+    }
+    let at = |r: usize, c: usize| idx[r * cols + c];
+    let law = Law::Ref.interaction();
+    for r in 0..rows {
+        for c in 0..cols - 1 {
+            net.add_link(law.clone(), at(r, c), at(r, c + 1));
+        }
+    }
+    for r in 0..rows - 1 {
+        for c in 0..cols {
+            net.add_link(law.clone(), at(r, c), at(r + 1, c));
+        }
+    }
+    let rim = ground(&mut net);
+    for r in 0..rows {
+        for c in 0..cols {
+            let missing = [r == 0, r == rows - 1, c == 0, c == cols - 1];
+            for _ in missing.iter().filter(|&&m| m) {
+                net.add_link(law.clone(), rim, at(r, c));
+            }
+        }
+    }
+    let out = at(rows / 2, cols / 2);
+    net.add_position_output(out);
+    Model {
+        name: format!("rimmed_{rows}x{cols}"),
+        net,
+        masses: rows * cols,
+        out,
+    }
+}
+
 /// `model` in the plain-text netlist format of the C baseline kit (`gen_models.py`): the C generic
 /// kernel `cref.c` reads it, so it can be timed on every benchmark model (the kit's own generator
 /// has strings and membranes only). Node `i` is material `i`; MAS, SOL and REF only.
@@ -258,6 +302,7 @@ fn build(spec: &Spec) -> Model {
     match *spec {
         Spec::String(n, law) => string(n, law),
         Spec::Membrane(r, c) => membrane(r, c),
+        Spec::Rimmed(r, c) => rimmed(r, c),
         Spec::Random(n) => random(n),
     }
 }
@@ -1048,7 +1093,7 @@ fn work() -> u64 {
 fn usage() -> ! {
     eprintln!(
         "usage: cargo bench -p cordis-core --bench engine -- [string [N]] [but [N]] [lnl [N]] \
-         [membrane [R C | RxC]] [random [N]]...\n(no model: every default model)\n   \
+         [membrane [R C | RxC]] [rimmed R C | RxC] [random [N]]...\n(no model: every default model)\n   \
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
          threads, default N = 100000 masses, T = 2)\n   \
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
@@ -1069,21 +1114,26 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "string" => Some(Law::Ref),
             "but" => Some(Law::But),
             "lnl" => Some(Law::Lnl),
-            "membrane" | "random" => None,
+            "membrane" | "rimmed" | "random" => None,
             _ => usage(),
         };
         let first = args.get(i).map(String::as_str);
         let explicit = match (kind, first) {
-            ("membrane", Some(a)) => {
+            ("membrane" | "rimmed", Some(a)) => {
+                let spec = if kind == "membrane" {
+                    Spec::Membrane
+                } else {
+                    Spec::Rimmed
+                };
                 if let Some((r, c)) = a
                     .split_once('x')
                     .and_then(|(r, c)| Some((num(r)?, num(c)?)))
                 {
                     i += 1;
-                    Some(Spec::Membrane(r, c))
+                    Some(spec(r, c))
                 } else if let (Some(r), Some(c)) = (num(a), args.get(i + 1).and_then(|c| num(c))) {
                     i += 2;
-                    Some(Spec::Membrane(r, c))
+                    Some(spec(r, c))
                 } else {
                     None
                 }
@@ -1099,7 +1149,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
         };
         match explicit {
             Some(Spec::String(n, _) | Spec::Random(n)) if n < 2 => usage(),
-            Some(Spec::Membrane(r, c)) if r < 3 || c < 3 => usage(), // the strike is at (2,2)
+            Some(Spec::Membrane(r, c) | Spec::Rimmed(r, c)) if r < 3 || c < 3 => usage(), // the strike is at (2,2)
             Some(spec) => specs.push(spec),
             None => specs.extend(
                 DEFAULT_MODELS
@@ -1107,6 +1157,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
                     .filter(|s| match (s, kind) {
                         (Spec::String(_, l), _) => Some(*l) == law,
                         (Spec::Membrane(..), k) => k == "membrane",
+                        (Spec::Rimmed(..), _) => false,
                         (Spec::Random(_), k) => k == "random",
                     })
                     .cloned(),

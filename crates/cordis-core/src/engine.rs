@@ -1556,7 +1556,8 @@ impl Kernel {
                 });
                 if let Some(st) = &seg_streams {
                     // every term is the MAS's edge or, at the exceptions, a slot between two
-                    // that are (so `< sf_len`, with the same sign)
+                    // that are (so `< sf_len`, with their sign, which may not be the exception's
+                    // own: `update_mas` recomputes it from its edges)
                     for s in mats.clone() {
                         let fix = mas_fix.binary_search(&(s as u32)).is_ok();
                         for j in 0..d {
@@ -1566,7 +1567,7 @@ impl Kernel {
                             assert!(
                                 edge == term
                                     || fix
-                                        && term & NEG == edge & NEG
+                                        && term & NEG == base & NEG
                                         && ((term & !NEG) as usize) < sf_len
                             );
                         }
@@ -4153,6 +4154,57 @@ mod tests {
         net
     }
 
+    /// [`membrane`] with its links declared as the language's `membrane` generator does (the
+    /// horizontal links, the vertical links, then a link from one SOL to each edge MAS per missing
+    /// neighbour), or (`mixed`) with every other row's first MAS's link to the SOL first and from
+    /// the MAS, and the last column's from the MAS.
+    fn rimmed(rows: usize, cols: usize, mixed: bool) -> Network {
+        let mut net = Network::new();
+        let ids: Vec<MatId> = (0..rows * cols)
+            .map(|i| {
+                let v0 = if i == cols + 2 { 0.05 } else { 0.0 };
+                net.add_material(Material::Mas {
+                    m: 1.0,
+                    x0: 0.0,
+                    v0,
+                })
+            })
+            .collect();
+        let law = Interaction::Ref { k: 0.1, z: 1e-4 };
+        let rim = net.add_material(Material::Sol { x0: 0.0 });
+        let at = |r: usize, c: usize| ids[r * cols + c];
+        let early = |r: usize| mixed && r.is_multiple_of(2);
+        for r in (0..rows).filter(|&r| early(r)) {
+            net.add_link(law.clone(), at(r, 0), rim);
+        }
+        for r in 0..rows {
+            for c in 0..cols - 1 {
+                net.add_link(law.clone(), at(r, c), at(r, c + 1));
+            }
+        }
+        for r in 0..rows - 1 {
+            for c in 0..cols {
+                net.add_link(law.clone(), at(r, c), at(r + 1, c));
+            }
+        }
+        for r in 0..rows {
+            for c in 0..cols {
+                let missing = [r == 0, r + 1 == rows, c == 0 && !early(r), c + 1 == cols];
+                for (side, _) in missing.iter().enumerate().filter(|(_, &m)| m) {
+                    if mixed && side == 3 {
+                        net.add_link(law.clone(), at(r, c), rim);
+                    } else {
+                        net.add_link(law.clone(), rim, at(r, c));
+                    }
+                }
+            }
+        }
+        for &m in ids.iter().step_by(7) {
+            net.add_position_output(m);
+        }
+        net
+    }
+
     /// Membranes whose rows are one loop with exceptions (see [`bridged`]) give, at every step,
     /// the bits of the same engine with a loop per row: rows of several lengths modulo the vector
     /// width, with each MAS update form, on one thread and on three (whose pieces of the loops
@@ -4209,6 +4261,8 @@ mod tests {
         for (rows, cols) in [(2, 16), (3, 17), (9, 24), (7, 100)] {
             assert!(taken(&membrane(rows, cols, |_| 1.0)), "{rows}x{cols}");
             assert!(taken(&membrane(rows, cols, |_| 1.5)), "{rows}x{cols}");
+            assert!(taken(&rimmed(rows, cols, false)), "{rows}x{cols}");
+            assert!(taken(&rimmed(rows, cols, true)), "{rows}x{cols}");
         }
         // too narrow, one row, per-MAS inertias
         assert!(!taken(&membrane(6, 15, |_| 1.0)));
@@ -4238,15 +4292,36 @@ mod tests {
         let mut free = membrane(6, 20, |_| 1.0);
         free.links.remove(0);
         assert!(!taken(&free));
-        for (rows, cols, m) in [(3, 17, 1.0), (9, 24, 1.5), (12, 33, 0.25), (7, 100, 1.0)] {
-            let mut net = membrane(rows, cols, |_| m);
+        // a link declared from its right MAS to its left; one top MAS (not the first or last of
+        // its row) summing its SOL term first, unlike its row
+        let mut reversed = membrane(6, 20, |_| 1.0);
+        let link = &mut reversed.links[30];
+        (link.a, link.b) = (link.b, link.a);
+        assert!(!taken(&reversed));
+        let mut early = membrane(6, 20, |_| 1.0);
+        let top5 = early.links.remove(6 * 21 + 5 * 7);
+        early.links.insert(0, top5);
+        assert!(!taken(&early));
+        let layouts = [
+            (3, 17, 1.0, 0),
+            (9, 24, 1.5, 1),
+            (12, 33, 0.25, 0),
+            (7, 100, 1.0, 2),
+            (5, 18, 1.0, 1),
+            (4, 41, 1.0, 2),
+        ];
+        for (rows, cols, m, layout) in layouts {
+            let mut net = match layout {
+                0 => membrane(rows, cols, |_| m),
+                _ => rimmed(rows, cols, layout == 2),
+            };
             let last = LinkId(net.links.len() as u32 - 1);
             net.add_force_output(last);
             net.add_force(MatId(cols as u32 + 5), Signal::Impulse { at: 9, amp: 0.1 });
             net.add_force(MatId(cols as u32 + 5), Signal::Constant(1e-4));
             net.add_force(MatId(0), Signal::Impulse { at: 30, amp: -0.1 });
             let mut grid = Engine::new(&net);
-            assert!(grid.k.grid.is_some(), "{rows}x{cols}");
+            assert!(grid.k.grid.is_some(), "{rows}x{cols}, layout {layout}");
             let mut gather = grid.clone();
             gather.k.grid = None;
             let mut moved = false;
@@ -4256,14 +4331,17 @@ mod tests {
                 grid.process(block, &mut a).unwrap();
                 gather.process(block, &mut b).unwrap();
                 let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
-                assert!(bits(&a) == bits(&b), "{rows}x{cols}, block {block}");
+                assert!(
+                    bits(&a) == bits(&b),
+                    "{rows}x{cols} {layout}, block {block}"
+                );
                 moved |= a.iter().any(|&v| v != 0.0);
                 for l in 0..net.links.len() {
                     let l = LinkId(l as u32);
                     assert_eq!(grid.link_force(l).to_bits(), gather.link_force(l).to_bits());
                 }
             }
-            assert!(moved, "{rows}x{cols}: the outputs never moved");
+            assert!(moved, "{rows}x{cols} {layout}: the outputs never moved");
         }
     }
 

@@ -367,7 +367,8 @@ fn spring_networks_equal_the_reference() {
 /// Membranes that take the grid step on an AVX-512 CPU (`engine/grid.rs`: every force in
 /// registers, row by row) equal the reference at every step, in every output (positions, link
 /// forces, a sum), for widths of every remainder of 8, multiplied and divided inertias, SOL at
-/// their own positions or one rim, with and without ENF inputs, in blocks of any size.
+/// their own positions or one rim, links declared as the C kit, the language's `membrane` or a
+/// mix of orders and ends, with and without ENF inputs, in blocks of any size.
 #[test]
 fn grid_membranes_equal_the_reference() {
     let sizes = [
@@ -386,7 +387,8 @@ fn grid_membranes_equal_the_reference() {
             (1.5, false, false),
             (1.25, true, true),
         ] {
-            let net = grid_membrane(i as u64 + 1, rows, cols, m, shared_rim, inputs);
+            let layout = [GridLayout::Kit, GridLayout::Rimmed, GridLayout::Mixed][i % 3];
+            let net = grid_membrane(i as u64 + 1, rows, cols, m, layout, shared_rim, inputs);
             let steps = 1200;
             let expected = reference(&net, steps);
             for block in [1, 7, 1024] {
@@ -394,7 +396,7 @@ fn grid_membranes_equal_the_reference() {
                 assert_eq!(
                     first_bit_difference(&got, &expected),
                     None,
-                    "{rows}x{cols}, M {m}, rim {shared_rim}, inputs {inputs}, block {block}"
+                    "{rows}x{cols} {layout:?}, M {m}, rim {shared_rim}, inputs {inputs}, block {block}"
                 );
             }
             let ch = net.outputs.len();

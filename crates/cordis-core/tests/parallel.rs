@@ -445,18 +445,19 @@ fn a_blow_up_is_reported_at_the_same_step_and_module_with_threads() {
 /// rows or more.
 #[test]
 fn grid_membranes_match_on_any_thread_count_and_block_size() {
-    for (seed, rows, cols, m, steps) in [
-        (1, 3, 16, 1.0, 300),
-        (2, 40, 37, 1.5, 400),
-        (3, 100, 100, 0.5, 150),
+    for (seed, rows, cols, m, steps, layout) in [
+        (1, 3, 16, 1.0, 300, GridLayout::Kit),
+        (2, 40, 37, 1.5, 400, GridLayout::Rimmed),
+        (3, 100, 100, 0.5, 150, GridLayout::Mixed),
+        (4, 9, 20, 1.0, 200, GridLayout::Rimmed),
     ] {
-        let net = grid_membrane(seed, rows, cols, m, seed == 2, true);
+        let net = grid_membrane(seed, rows, cols, m, layout, seed == 2, true);
         let expected = single_thread_checked(&net, steps);
         check_all(
             &net,
             steps,
             &expected,
-            &format!("grid membrane {rows}x{cols}"),
+            &format!("grid membrane {rows}x{cols} {layout:?}"),
         );
     }
 }

@@ -2,7 +2,8 @@
 //!
 //! A membrane is a grid of `rows x cols` MAS in consecutive storage slots (row `r`, column `c` at
 //! slot `r cols + c`), each tied to its four neighbours by REF links of one `K` and `Z`, and a
-//! border MAS to a SOL in place of each missing neighbour. The gather step computes every link
+//! border MAS to a SOL in place of each missing neighbour: as the C baseline kit declares it, or
+//! the language's `membrane` generator with a fixed border. The gather step computes every link
 //! force into a buffer and the MAS loop reads four of them back per MAS: on a 100x100 membrane the
 //! buffer's traffic, not the arithmetic, bounds it (docs/BENCHMARKS.md). The grid step keeps no
 //! force buffer. Going down the rows, eight MAS at a time:
@@ -15,14 +16,25 @@
 //!   the links up of the next row;
 //! - `F(n) = (((0 + f_left) - f_right) + f_up) - f_down` and `x(n+1)` are computed and stored.
 //!
-//! **Why the bits are the reference's.** `Grid::new` takes a network only if every MAS's terms are,
-//! in FORMALISM.md's order, the link on its left (the MAS its end 2), on its right (end 1), above
-//! (end 2), below (end 1), then its ENF inputs; so the sum above is the reference's `F += f` /
-//! `F -= f`, term by term, from `+0.0`. Every link force is `K (x1 - x2) + Z ((x1 - x1') - (x2 -
-//! x2'))` with the same operands ([`super::LinkLaw`]), and the update is `mas_with`'s. A MAS with ENF
-//! inputs is recomputed after its rows, term by term (as `update_mas` does its exceptions). The
-//! loads and shuffles are AVX-512 (an [`Avx512`] token is the CPU's proof); `tests/engine.rs`
-//! compares every step with the reference, and `engine.rs`'s tests with the gather step.
+//! **Why the bits are the reference's.** `Grid::new` takes a network only if each MAS's first
+//! four terms are its links (then come its ENF inputs, if any): to each neighbour, a REF link of
+//! the one `K` and `Z`, the MAS end 2 of the link on its left and above, end 1 of the others; in
+//! place of each missing neighbour, a link to a SOL, the MAS at either end. Every link force is
+//! `K (x1 - x2) + Z ((x1 - x1') - (x2 - x2'))` with the same operands ([`super::LinkLaw`]). A
+//! ground's term is `K (x_g - x) + Z (v_g - v)` whichever end the MAS is: `F -= K (x - x_g) + Z
+//! (v - v_g)` adds the same value, since rounding is symmetric (`a - b = -(b - a)`, `K (-y) =
+//! -(K y)`, `(-p) + (-q) = -(p + q)`), but for the sign of a zero, which changes no sum: `F`
+//! starts at `+0.0` and is never `-0.0` (a sum is `-0.0` only if both operands are), and adding
+//! a zero of either sign to it gives it back. So each term is one of the step's `f_left`,
+//! `-f_right`, `f_up`, `-f_down` (the grounds, in their terms' order, standing for the missing
+//! neighbours taken left, right, up, down), and a MAS adds them, from `+0.0`, in its [`Order`]:
+//! the inner MAS of a row all in one, left-right-up-down or left-right-down-up (the top row of
+//! the language's `membrane`, whose rim links come last), which the vector loop sums; the row's
+//! first and last MAS in any (the first recomputed after the loop, the last in the scalar tail).
+//! The update is `mas_with`'s. A MAS with ENF inputs is recomputed after its rows, term by term
+//! (as `update_mas` does its exceptions). The loads and shuffles are AVX-512 (an [`Avx512`] token
+//! is the CPU's proof); `tests/engine.rs` compares every step with the reference, and
+//! `engine.rs`'s tests with the gather step.
 
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
@@ -36,6 +48,40 @@ use super::{by_div, by_inv, Kernel, Law, LinkLaw, MasLaw, RefLaw, Roles, Run, St
 /// Fewest columns (so that a row has at least one whole block and its tail) and rows.
 const COLS_MIN: usize = 2 * LANES;
 const ROWS_MIN: usize = 2;
+
+/// The sides of a MAS's link terms: the link to the MAS on its left, on its right, above, below.
+const LEFT: usize = 0;
+const RIGHT: usize = 1;
+const UP: usize = 2;
+const DOWN: usize = 3;
+
+/// The order in which a MAS sums its four link terms: the side of each term, two bits each, the
+/// first term in the lowest bits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Order(u8);
+
+impl Order {
+    /// Left, right, up, down: every inner MAS of a membrane whose links are declared row by row
+    /// (each row's grounds, horizontal links, then grounds), or horizontal links then vertical.
+    const CANONICAL: Order = Order::of([LEFT, RIGHT, UP, DOWN]);
+    /// Left, right, down, up: the top row of the language's `membrane`, whose rim links come last.
+    const UP_LAST: Order = Order::of([LEFT, RIGHT, DOWN, UP]);
+
+    const fn of(sides: [usize; 4]) -> Order {
+        Order((sides[0] | sides[1] << 2 | sides[2] << 4 | sides[3] << 6) as u8)
+    }
+
+    /// `F(n)`, from `+0.0`, of the signed terms `t` of each side (`t[LEFT]`, `-f_right`,
+    /// `t[UP]`, `-f_down`: `F -= f` is `F += -f`, bit for bit) in this order.
+    #[inline(always)]
+    fn sum(self, t: [f64; 4]) -> f64 {
+        let mut f = 0.0;
+        for i in 0..4 {
+            f += t[(self.0 >> (2 * i)) as usize & 3];
+        }
+        f
+    }
+}
 
 /// A membrane the grid step can take (see the module's documentation).
 #[derive(Clone, Debug)]
@@ -53,6 +99,11 @@ pub(super) struct Grid {
     right: Vec<u32>,
     top: Vec<u32>,
     bottom: Vec<u32>,
+    /// The order of each row's MAS but the first and last (`CANONICAL` or `UP_LAST`), and of
+    /// its first and last MAS (any)
+    mid: Vec<Order>,
+    first: Vec<Order>,
+    last: Vec<Order>,
     /// The MAS with ENF inputs (ascending storage slots): recomputed after their rows.
     fixes: Vec<u32>,
     /// The links the outputs read (see [`Kernel::recorded_links`]).
@@ -86,12 +137,18 @@ impl Grid {
             _ => return None,
         };
         let edges = |s: usize| &k.eidx[k.eoff[s] as usize..k.eoff[s + 1] as usize];
-        // the link below MAS 0 gives the width
-        let &below0 = edges(0).get(3)?;
-        if below0 & NEG == 0 || below0 & !NEG >= k.nl as u32 {
-            return None;
-        }
-        let cols = k.lb[(below0 & !NEG) as usize] as usize;
+        let link = |e: u32| (e & !NEG) as usize;
+        // the other end of each term of MAS 0 (its neighbours are MAS 1 and MAS `cols`)
+        let other = |e: u32| {
+            let l = link(e);
+            let end = if e & NEG != 0 { &k.lb } else { &k.la };
+            end.get(l).map(|&o| o as usize)
+        };
+        let cols = edges(0)
+            .iter()
+            .filter_map(|&e| other(e))
+            .filter(|&o| o < n)
+            .max()?;
         if cols < COLS_MIN || !n.is_multiple_of(cols) || n / cols < ROWS_MIN {
             return None;
         }
@@ -100,8 +157,14 @@ impl Grid {
         for run in &k.whole.runs {
             law[run.start..run.end].fill(run.law);
         }
-        let first = (edges(0)[0] & !NEG) as usize;
+        let first = link(*edges(0).first()?);
         let (kk, zz) = (*k.lk.get(first)?, *k.lz.get(first)?);
+        let same = |l: usize| {
+            l < k.nl
+                && law[l] == Law::Ref
+                && k.lk[l].to_bits() == kk.to_bits()
+                && k.lz[l].to_bits() == zz.to_bits()
+        };
         let mut g = Grid {
             cpu,
             rows,
@@ -114,66 +177,82 @@ impl Grid {
             right: vec![0; rows],
             top: vec![0; cols],
             bottom: vec![0; cols],
+            mid: vec![Order::CANONICAL; rows],
+            first: vec![Order::CANONICAL; rows],
+            last: vec![Order::CANONICAL; rows],
             fixes: Vec::new(),
             recorded: k.recorded_links()?,
         };
-        let sol = |s: u32| (s as usize) >= k.n_mce;
-        let link = |e: u32| (e & !NEG) as usize;
         for s in 0..n {
             let (r, c) = (s / cols, s % cols);
             let e = edges(s);
-            let (Some(&[l, rt, u, d]), inputs) = (e.first_chunk::<4>(), e.get(4..)?) else {
+            let (Some(terms), inputs) = (e.first_chunk::<4>(), e.get(4..)?) else {
                 return None;
             };
-            // the terms' signs: end 2, end 1, end 2, end 1; then inputs only
-            if l & NEG != 0 || rt & NEG == 0 || u & NEG != 0 || d & NEG == 0 {
-                return None;
-            }
             if inputs.iter().any(|&i| i & NEG != 0 || (i as usize) < k.nl) {
                 return None;
             }
             if !inputs.is_empty() {
                 g.fixes.push(s as u32);
             }
-            let links = [l, rt, u, d].map(link);
-            let same = |l: usize| {
-                law[l] == Law::Ref
-                    && k.lk[l].to_bits() == kk.to_bits()
-                    && k.lz[l].to_bits() == zz.to_bits()
-            };
-            if links.iter().any(|&l| l >= k.nl || !same(l)) {
-                return None;
-            }
-            let [l, rt, u, d] = links;
-            let s32 = s as u32;
-            if k.lb[l] != s32 || k.la[rt] != s32 || k.lb[u] != s32 || k.la[d] != s32 {
-                return None;
-            }
-            // each other end: the neighbour (`inner`, checked by `is_neighbour`), else a SOL,
-            // returned
-            let end = |inner: bool, is_neighbour: &dyn Fn() -> bool, other: u32| {
-                if inner {
-                    is_neighbour().then_some(None)
-                } else {
-                    sol(other).then_some(Some(other))
+            // each side's neighbour, if it has one, and the sign its term must have (the MAS is
+            // end 2 of the link on its left and above, end 1 of the others)
+            let neighbour = [
+                (c > 0).then(|| s - 1),
+                (c + 1 < cols).then_some(s + 1),
+                (r > 0).then(|| s - cols),
+                (r + 1 < rows).then_some(s + cols),
+            ];
+            let mut taken = [false; 4];
+            let mut sides = [0; 4];
+            let mut grounds = Vec::new();
+            for (i, &t) in terms.iter().enumerate() {
+                let (l, o) = (link(t), other(t)?);
+                let mine = if t & NEG != 0 { k.la[l] } else { k.lb[l] };
+                if !same(l) || mine as usize != s {
+                    return None;
                 }
-            };
-            // (left and up: the neighbour's term is the same link)
-            let (a, b) = (k.la[l], k.lb[rt]);
-            let left = || a == s32 - 1 && link(edges(s - 1)[1]) == l;
-            if let Some(ground) = end(c > 0, &left, a)? {
-                g.left[r] = ground;
+                if o >= k.n_mce {
+                    // a link to a SOL: its term is `K (x_g - x) + Z (v_g - v)` whichever end
+                    // the MAS is (up to the sign of a zero), as a missing neighbour's below
+                    grounds.push((i, o as u32));
+                    continue;
+                }
+                let side = neighbour.iter().position(|&b| b == Some(o))?;
+                let end1 = side == RIGHT || side == DOWN;
+                if taken[side] || (t & NEG != 0) != end1 {
+                    return None;
+                }
+                (taken[side], sides[i]) = (true, side);
             }
-            if let Some(ground) = end(c + 1 < cols, &|| b == s32 + 1, b)? {
-                g.right[r] = ground;
+            // the grounds, in their terms' order, stand for the missing neighbours in side order
+            let missing = (0..4).filter(|&d| neighbour[d].is_none());
+            if grounds.len() != missing.clone().count()
+                || (0..4).any(|d| neighbour[d].is_some() && !taken[d])
+            {
+                return None;
             }
-            let (a, b) = (k.la[u], k.lb[d]);
-            let up = || a as usize == s - cols && link(edges(s - cols)[3]) == u;
-            if let Some(ground) = end(r > 0, &up, a)? {
-                g.top[c] = ground;
+            for ((i, ground), side) in grounds.into_iter().zip(missing) {
+                sides[i] = side;
+                match side {
+                    LEFT => g.left[r] = ground,
+                    RIGHT => g.right[r] = ground,
+                    UP => g.top[c] = ground,
+                    _ => g.bottom[c] = ground,
+                }
             }
-            if let Some(ground) = end(r + 1 < rows, &|| b as usize == s + cols, b)? {
-                g.bottom[c] = ground;
+            let order = Order::of(sides);
+            if c == 0 {
+                g.first[r] = order;
+            } else if c + 1 == cols {
+                g.last[r] = order;
+            } else if c == 1 {
+                if order != Order::CANONICAL && order != Order::UP_LAST {
+                    return None;
+                }
+                g.mid[r] = order;
+            } else if order != g.mid[r] {
+                return None;
             }
         }
         Some(g)
@@ -310,9 +389,19 @@ impl Grid {
     #[inline(always)]
     fn update(&self, x: f64, xp: f64, f: f64) -> f64 {
         if self.div {
-            by_div(x, xp, f, self.m)
+            Self::update_as::<true>(x, xp, f, self.m)
         } else {
-            by_inv(x, xp, f, self.m)
+            Self::update_as::<false>(x, xp, f, self.m)
+        }
+    }
+
+    /// `x(n+1)` of a MAS: divided by `m` (`DIV`) or multiplied by it, as `Grid::m` says.
+    #[inline(always)]
+    fn update_as<const DIV: bool>(x: f64, xp: f64, f: f64, m: f64) -> f64 {
+        if DIV {
+            by_div(x, xp, f, m)
+        } else {
+            by_inv(x, xp, f, m)
         }
     }
 
@@ -321,10 +410,11 @@ impl Grid {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: `self.cpu` exists, so the CPU has AVX-512F (see `Avx512::detect`).
         unsafe {
-            if self.div {
-                self.row::<true>(r, args);
-            } else {
-                self.row::<false>(r, args);
+            match (self.div, self.mid[r] == Order::UP_LAST) {
+                (true, true) => self.row::<true, true>(r, args),
+                (true, false) => self.row::<true, false>(r, args),
+                (false, true) => self.row::<false, true>(r, args),
+                (false, false) => self.row::<false, false>(r, args),
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
@@ -339,7 +429,7 @@ impl Grid {
     /// row below's velocities into `vn` and its links down into `up` (where they were the links up).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    fn row<const DIV: bool>(&self, r: usize, a: RowArgs<'_>) {
+    fn row<const DIV: bool, const UP_LAST: bool>(&self, r: usize, a: RowArgs<'_>) {
         let (cols, stride) = (self.cols, self.stride());
         let RowArgs {
             x,
@@ -372,6 +462,7 @@ impl Grid {
         let shift_next = _mm512_setr_epi64(1, 2, 3, 4, 5, 6, 7, 8);
         let shift_prev = _mm512_setr_epi64(7, 8, 9, 10, 11, 12, 13, 14);
         let mut hl = h0;
+        let u0 = up[0];
         // SAFETY: every load and store is of 8 items from `c0 < full` or `c0 + 8 <= full` on,
         // `full + 8 <= cols + 7 < stride`, within `xr`, `pr`, `xd`, `pd`, `next` (`cols` each:
         // `c0 + 8 <= full < cols`) or the row buffers (`stride` each), asserted above; the next
@@ -406,8 +497,12 @@ impl Grid {
                 let u = _mm512_loadu_pd(up.as_ptr().add(c0));
                 _mm512_storeu_pd(up.as_mut_ptr().add(c0), d);
                 // `F(n)` from `+0.0`, term by term
-                let f = _mm512_add_pd(zero, left);
-                let f = _mm512_sub_pd(_mm512_add_pd(_mm512_sub_pd(f, h), u), d);
+                let f = _mm512_sub_pd(_mm512_add_pd(zero, left), h);
+                let f = if UP_LAST {
+                    _mm512_add_pd(_mm512_sub_pd(f, d), u)
+                } else {
+                    _mm512_sub_pd(_mm512_add_pd(f, u), d)
+                };
                 // `2 x - x' + F / M` (or `F (1 / M)`), as `by_div` (`by_inv`)
                 let p = _mm512_loadu_pd(pr.as_ptr().add(c0));
                 let by = if DIV {
@@ -428,21 +523,39 @@ impl Grid {
             }
         }
         // the last columns, one at a time, the last with this row's right ground
+        let mid = if UP_LAST {
+            Order::UP_LAST
+        } else {
+            Order::CANONICAL
+        };
         let gr = self.right[r] as usize;
         for c in full..cols {
             let (x0, v0) = (xr[c], vc[c]);
-            let h = if c + 1 < cols {
-                link(x0, v0, xr[c + 1], vc[c + 1])
-            } else {
+            let last = c + 1 == cols;
+            let h = if last {
                 link(x0, v0, x[gr], x[gr] - xp[gr])
+            } else {
+                link(x0, v0, xr[c + 1], vc[c + 1])
             };
             let v = xd[c] - pd[c];
             vn[c] = v;
             let d = link(x0, v0, xd[c], v);
-            let f = 0.0 + hl - h + up[c] - d;
+            let t = [hl, -h, up[c], -d];
+            let f = if last && self.last[r] != mid {
+                self.last[r].sum(t)
+            } else {
+                mid.sum(t)
+            };
             up[c] = d;
-            next[c] = self.update(x0, pr[c], f);
+            next[c] = Self::update_as::<DIV>(x0, pr[c], f, self.m);
             hl = h;
+        }
+        // the first MAS again if its terms come in another order than the row's
+        if self.first[r] != mid {
+            let (x0, v0) = (xr[0], vc[0]);
+            let h = link(x0, v0, xr[1], vc[1]);
+            let f = self.first[r].sum([h0, -h, u0, -up[0]]);
+            next[0] = Self::update_as::<DIV>(x0, pr[0], f, self.m);
         }
     }
 }

@@ -407,20 +407,35 @@ pub fn spring_network(
     net
 }
 
+/// How [`grid_membrane`] declares its links: every layout the grid step takes
+/// (`engine/grid.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GridLayout {
+    /// As the C baseline kit: each row's links from its left SOL to its right one, then each
+    /// column's from its top SOL to its bottom one (every MAS sums left, right, up, down).
+    Kit,
+    /// As the language's `membrane` generator (docs/LANGUAGE.md): the horizontal links row by
+    /// row, the vertical links row by row, then a link from a SOL (end 1) to each edge MAS per
+    /// missing neighbour, row by row: the edge MAS sum their SOL terms last.
+    Rimmed,
+    /// The SOL links of every other row's first MAS first, declared MAS to SOL (end 2); then the
+    /// horizontal and vertical links; then the top row's, the last column's (MAS to SOL) and
+    /// the bottom row's SOL links, and the remaining first MAS's (SOL to MAS).
+    Mixed,
+}
+
 /// A membrane the grid step takes (`engine/grid.rs`): `rows x cols` MAS of inertia `m`, row by
 /// row, each tied by REF links of one K and Z to its four neighbours, and a border MAS to a SOL
-/// in place of each missing one (declared as the C baseline kit does: each row's links from its
-/// left SOL to its right one, then each column's from its top SOL to its bottom one). The SOL sit
-/// at seeded positions, one per border link or one for all (`shared_rim`); every MAS starts at a
-/// seeded position and some with a velocity. With `inputs`, ENF on two MAS (two on one).
-/// Outputs:
-/// SOX on five MAS, SOF on a horizontal, a vertical and a border link, and a sum of a position and
-/// a force.
+/// in place of each missing one, declared as `layout` says. The SOL sit at seeded positions, one
+/// per border link or one for all (`shared_rim`); every MAS starts at a seeded position and some
+/// with a velocity. With `inputs`, ENF on two MAS (two on one). Outputs: SOX on five MAS, SOF on
+/// a horizontal, a vertical and a border link, and a sum of a position and a force.
 pub fn grid_membrane(
     seed: u64,
     rows: usize,
     cols: usize,
     m: f64,
+    layout: GridLayout,
     shared_rim: bool,
     inputs: bool,
 ) -> Network {
@@ -448,24 +463,74 @@ pub fn grid_membrane(
     };
     let at = |r: usize, c: usize| ids[r * cols + c];
     let law = Interaction::Ref { k: 0.13, z: 2e-3 };
-    let mut links = Vec::new();
-    for r in 0..rows {
-        let g = ground(&mut net);
-        links.push(net.add_link(law.clone(), g, at(r, 0)));
-        for c in 0..cols - 1 {
-            links.push(net.add_link(law.clone(), at(r, c), at(r, c + 1)));
+    // a link from a new SOL to `to`, or (`from`) from `to` to it
+    let mut grounded = |net: &mut Network, to: MatId, from: bool| {
+        let g = ground(net);
+        if from {
+            net.add_link(law.clone(), to, g)
+        } else {
+            net.add_link(law.clone(), g, to)
         }
-        let g = ground(&mut net);
-        links.push(net.add_link(law.clone(), at(r, cols - 1), g));
-    }
-    for c in 0..cols {
-        let g = ground(&mut net);
-        links.push(net.add_link(law.clone(), g, at(0, c)));
-        for r in 0..rows - 1 {
-            links.push(net.add_link(law.clone(), at(r, c), at(r + 1, c)));
+    };
+    let (mut horizontal, mut vertical, mut border) = (None, None, None);
+    match layout {
+        GridLayout::Kit => {
+            for r in 0..rows {
+                border = Some(grounded(&mut net, at(r, 0), false));
+                for c in 0..cols - 1 {
+                    horizontal = Some(net.add_link(law.clone(), at(r, c), at(r, c + 1)));
+                }
+                grounded(&mut net, at(r, cols - 1), true);
+            }
+            for c in 0..cols {
+                grounded(&mut net, at(0, c), false);
+                for r in 0..rows - 1 {
+                    vertical = Some(net.add_link(law.clone(), at(r, c), at(r + 1, c)));
+                }
+                grounded(&mut net, at(rows - 1, c), true);
+            }
         }
-        let g = ground(&mut net);
-        links.push(net.add_link(law.clone(), at(rows - 1, c), g));
+        GridLayout::Rimmed | GridLayout::Mixed => {
+            let mixed = layout == GridLayout::Mixed;
+            if mixed {
+                for r in (0..rows).step_by(2) {
+                    border = Some(grounded(&mut net, at(r, 0), true));
+                }
+            }
+            for r in 0..rows {
+                for c in 0..cols - 1 {
+                    horizontal = Some(net.add_link(law.clone(), at(r, c), at(r, c + 1)));
+                }
+            }
+            for r in 0..rows - 1 {
+                for c in 0..cols {
+                    vertical = Some(net.add_link(law.clone(), at(r, c), at(r + 1, c)));
+                }
+            }
+            if mixed {
+                for c in 0..cols {
+                    grounded(&mut net, at(0, c), false);
+                }
+                for r in 0..rows {
+                    grounded(&mut net, at(r, cols - 1), true);
+                }
+                for c in 0..cols {
+                    grounded(&mut net, at(rows - 1, c), true);
+                }
+                for r in (1..rows).step_by(2) {
+                    grounded(&mut net, at(r, 0), false);
+                }
+            } else {
+                for r in 0..rows {
+                    for c in 0..cols {
+                        let missing = [r == 0, r == rows - 1, c == 0, c == cols - 1];
+                        for _ in missing.iter().filter(|&&m| m) {
+                            border = Some(grounded(&mut net, at(r, c), false));
+                        }
+                    }
+                }
+            }
+        }
     }
     if inputs {
         net.add_force(at(rows / 2, 1), Signal::Impulse { at: 3, amp: 0.01 });
@@ -484,12 +549,13 @@ pub fn grid_membrane(
     ] {
         net.add_position_output(at(r, c));
     }
-    for l in [links[3], links[rows * (cols + 1) + 2], links[cols]] {
+    let [horizontal, vertical, border] = [horizontal, vertical, border].map(Option::unwrap);
+    for l in [horizontal, vertical, border] {
         net.add_force_output(l);
     }
     net.add_sum_output(vec![
         (2.0, Probe::Position(at(1, 1))),
-        (-0.5, Probe::Force(links[1])),
+        (-0.5, Probe::Force(border)),
     ]);
     net
 }
