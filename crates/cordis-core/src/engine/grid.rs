@@ -529,26 +529,30 @@ impl Grid {
             Order::CANONICAL
         };
         let gr = self.right[r] as usize;
-        for c in full..cols {
-            let (x0, v0) = (xr[c], vc[c]);
-            let last = c + 1 == cols;
-            let h = if last {
-                link(x0, v0, x[gr], x[gr] - xp[gr])
-            } else {
-                link(x0, v0, xr[c + 1], vc[c + 1])
-            };
-            let v = xd[c] - pd[c];
-            vn[c] = v;
-            let d = link(x0, v0, xd[c], v);
-            let t = [hl, -h, up[c], -d];
-            let f = if last && self.last[r] != mid {
-                self.last[r].sum(t)
-            } else {
-                mid.sum(t)
-            };
-            up[c] = d;
-            next[c] = Self::update_as::<DIV>(x0, pr[c], f, self.m);
-            hl = h;
+        // column `c` with its right neighbour's `x` and `v`, summed in `order`; gives its link on
+        // the right (a macro, so that the last column's order stays out of the loop)
+        macro_rules! column {
+            ($c:expr, $xr:expr, $vr:expr, $order:expr) => {{
+                let c = $c;
+                let (x0, v0) = (xr[c], vc[c]);
+                let h = link(x0, v0, $xr, $vr);
+                let v = xd[c] - pd[c];
+                vn[c] = v;
+                let d = link(x0, v0, xd[c], v);
+                let f = $order.sum([hl, -h, up[c], -d]);
+                up[c] = d;
+                next[c] = Self::update_as::<DIV>(x0, pr[c], f, self.m);
+                h
+            }};
+        }
+        for c in full..cols - 1 {
+            hl = column!(c, xr[c + 1], vc[c + 1], mid);
+        }
+        let order = self.last[r];
+        if order == mid {
+            column!(cols - 1, x[gr], x[gr] - xp[gr], mid);
+        } else {
+            column!(cols - 1, x[gr], x[gr] - xp[gr], order);
         }
         // the first MAS again if its terms come in another order than the row's
         if self.first[r] != mid {
