@@ -15,6 +15,8 @@
 //!   in contact) or an LNL (3-point curves, linear with slopes K and Z): the nonlinear-module cost;
 //! - `membrane R C` (or `membrane RxC`): 4-neighbour REF links, one ground per missing neighbour of a
 //!   border mass, strike at (2,2), SOX at the centre;
+//! - `rimmed R C` (or `rimmed RxC`): the same membrane declared as the language's `membrane`
+//!   generator does (one rim, its links after the grid's); no default size;
 //! - `random N`: N masses, each the end 1 of 2 REF links to masses drawn by a seeded LCG (4 links
 //!   per mass on average), one ground tied to mass 0, strike on N/4, SOX on N/2.
 //!
