@@ -148,8 +148,10 @@ fn string(n: usize, law: Law) -> Model {
 
 /// As `gen_models.py build_membrane` (one ground per missing neighbour, horizontal links row by row
 /// then vertical links column by column), struck at (2,2) and observed at the centre as in
-/// `baselines.sh`.
-fn membrane(rows: usize, cols: usize) -> Model {
+/// `baselines.sh`. `rimmed`: laid out as the language's `membrane` generator declares it
+/// (docs/LANGUAGE.md) instead: the horizontal links row by row, the vertical links row by row, then
+/// one rim (`sol`) and a link from it to each edge mass per missing neighbour, row by row.
+fn membrane(rows: usize, cols: usize, rimmed: bool) -> Model {
     let mut net = Network::new();
     let mut idx = Vec::with_capacity(rows * cols);
     for r in 0..rows {
@@ -159,70 +161,51 @@ fn membrane(rows: usize, cols: usize) -> Model {
     }
     let at = |r: usize, c: usize| idx[r * cols + c];
     let law = Law::Ref.interaction();
-    for r in 0..rows {
-        let g = ground(&mut net);
-        net.add_link(law.clone(), g, at(r, 0));
-        for c in 0..cols - 1 {
-            net.add_link(law.clone(), at(r, c), at(r, c + 1));
-        }
-        let g = ground(&mut net);
-        net.add_link(law.clone(), at(r, cols - 1), g);
-    }
-    for c in 0..cols {
-        let g = ground(&mut net);
-        net.add_link(law.clone(), g, at(0, c));
-        for r in 0..rows - 1 {
-            net.add_link(law.clone(), at(r, c), at(r + 1, c));
-        }
-        let g = ground(&mut net);
-        net.add_link(law.clone(), at(rows - 1, c), g);
-    }
-    let out = at(rows / 2, cols / 2);
-    net.add_position_output(out);
-    Model {
-        name: format!("membrane_{rows}x{cols}"),
-        net,
-        masses: rows * cols,
-        out,
-    }
-}
-
-/// [`membrane`] laid out as the language's `membrane` generator declares it (docs/LANGUAGE.md):
-/// the horizontal links row by row, the vertical links row by row, then one rim (`sol`) and a link
-/// from it to each edge mass per missing neighbour, row by row. Struck and observed as `membrane`.
-fn rimmed(rows: usize, cols: usize) -> Model {
-    let mut net = Network::new();
-    let mut idx = Vec::with_capacity(rows * cols);
-    for r in 0..rows {
-        for c in 0..cols {
-            idx.push(mass(&mut net, if (r, c) == (2, 2) { V0 } else { 0.0 }));
-        }
-    }
-    let at = |r: usize, c: usize| idx[r * cols + c];
-    let law = Law::Ref.interaction();
-    for r in 0..rows {
-        for c in 0..cols - 1 {
-            net.add_link(law.clone(), at(r, c), at(r, c + 1));
-        }
-    }
-    for r in 0..rows - 1 {
-        for c in 0..cols {
-            net.add_link(law.clone(), at(r, c), at(r + 1, c));
-        }
-    }
-    let rim = ground(&mut net);
-    for r in 0..rows {
-        for c in 0..cols {
-            let missing = [r == 0, r == rows - 1, c == 0, c == cols - 1];
-            for _ in missing.iter().filter(|&&m| m) {
-                net.add_link(law.clone(), rim, at(r, c));
+    if rimmed {
+        for r in 0..rows {
+            for c in 0..cols - 1 {
+                net.add_link(law.clone(), at(r, c), at(r, c + 1));
             }
         }
+        for r in 0..rows - 1 {
+            for c in 0..cols {
+                net.add_link(law.clone(), at(r, c), at(r + 1, c));
+            }
+        }
+        let rim = ground(&mut net);
+        for r in 0..rows {
+            for c in 0..cols {
+                let missing = [r == 0, r == rows - 1, c == 0, c == cols - 1];
+                for _ in missing.iter().filter(|&&m| m) {
+                    net.add_link(law.clone(), rim, at(r, c));
+                }
+            }
+        }
+    } else {
+        for r in 0..rows {
+            let g = ground(&mut net);
+            net.add_link(law.clone(), g, at(r, 0));
+            for c in 0..cols - 1 {
+                net.add_link(law.clone(), at(r, c), at(r, c + 1));
+            }
+            let g = ground(&mut net);
+            net.add_link(law.clone(), at(r, cols - 1), g);
+        }
+        for c in 0..cols {
+            let g = ground(&mut net);
+            net.add_link(law.clone(), g, at(0, c));
+            for r in 0..rows - 1 {
+                net.add_link(law.clone(), at(r, c), at(r + 1, c));
+            }
+            let g = ground(&mut net);
+            net.add_link(law.clone(), at(rows - 1, c), g);
+        }
     }
     let out = at(rows / 2, cols / 2);
     net.add_position_output(out);
+    let kind = if rimmed { "rimmed" } else { "membrane" };
     Model {
-        name: format!("rimmed_{rows}x{cols}"),
+        name: format!("{kind}_{rows}x{cols}"),
         net,
         masses: rows * cols,
         out,
@@ -303,8 +286,8 @@ fn random(n: usize) -> Model {
 fn build(spec: &Spec) -> Model {
     match *spec {
         Spec::String(n, law) => string(n, law),
-        Spec::Membrane(r, c) => membrane(r, c),
-        Spec::Rimmed(r, c) => rimmed(r, c),
+        Spec::Membrane(r, c) => membrane(r, c, false),
+        Spec::Rimmed(r, c) => membrane(r, c, true),
         Spec::Random(n) => random(n),
     }
 }
@@ -503,7 +486,7 @@ impl Stencil {
     fn new(rows: usize, cols: usize) -> Stencil {
         let w = cols + 2;
         let n = (rows + 2) * w;
-        let model = membrane(rows, cols);
+        let model = membrane(rows, cols, false);
         let mut x0 = vec![0.0; n];
         let mut x1 = vec![0.0; n];
         for r in 0..rows {
@@ -1176,7 +1159,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
 /// network.
 fn thread_models(n: usize) -> Vec<Model> {
     let side = ((n as f64).sqrt().round() as usize).max(3);
-    vec![string(n, Law::Ref), membrane(side, side), random(n)]
+    vec![string(n, Law::Ref), membrane(side, side, false), random(n)]
 }
 
 /// The 1-minute load average, to print next to timings on a shared machine.
