@@ -418,9 +418,10 @@ pub enum GridLayout {
     /// row, the vertical links row by row, then a link from a SOL (end 1) to each edge MAS per
     /// missing neighbour, row by row: the edge MAS sum their SOL terms last.
     Rimmed,
-    /// The SOL links of every other row's first MAS first, declared MAS to SOL (end 2); then the
-    /// horizontal and vertical links; then the top row's, the last column's (MAS to SOL) and
-    /// the bottom row's SOL links, and the remaining first MAS's (SOL to MAS).
+    /// The SOL links of every other row's first MAS first, declared MAS to SOL (the SOL end 2);
+    /// then the horizontal and vertical links; then the SOL links of the top row (SOL to MAS),
+    /// the last column and the bottom row (MAS to SOL), and the other rows' first MAS (SOL to
+    /// MAS).
     Mixed,
 }
 
