@@ -17,6 +17,10 @@
 //!   border mass, strike at (2,2), SOX at the centre;
 //! - `rimmed R C` (or `rimmed RxC`): the same membrane declared as the language's `membrane`
 //!   generator does (one rim, its links after the grid's); no default size;
+//! - `free R C`: that membrane without its rim (a free border); `struck R C`: with its rim and a
+//!   hammer (a MAS of inertia 4 declared after the membrane, falling from x = 2 at 0.01 per step
+//!   onto the mass at (R/3, C/3) through a BUT link, K and Z as the membrane's, S = 0): the unit
+//!   of work counts the hammer;
 //! - `random N`: N masses, each the end 1 of 2 REF links to masses drawn by a seeded LCG (4 links
 //!   per mass on average), one ground tied to mass 0, strike on N/4, SOX on N/2.
 //!
@@ -85,8 +89,9 @@ impl Law {
 enum Spec {
     String(usize, Law),
     Membrane(usize, usize),
-    /// A membrane laid out as the language's `membrane` generator declares it.
-    Rimmed(usize, usize),
+    /// A membrane laid out as the language's `membrane` generator declares it, with a rim or
+    /// without, or struck by a hammer.
+    Rimmed(usize, usize, Rim),
     Random(usize),
 }
 
@@ -146,12 +151,24 @@ fn string(n: usize, law: Law) -> Model {
     }
 }
 
+/// What the language-style membrane of [`membrane`] has around it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Rim {
+    /// One rim (`sol`), tied to each edge mass per missing neighbour.
+    Fixed,
+    /// Nothing: a free border.
+    Free,
+    /// The rim, and a hammer falling onto the mass at (R/3, C/3).
+    Struck,
+}
+
 /// As `gen_models.py build_membrane` (one ground per missing neighbour, horizontal links row by row
 /// then vertical links column by column), struck at (2,2) and observed at the centre as in
-/// `baselines.sh`. `rimmed`: laid out as the language's `membrane` generator declares it
+/// `baselines.sh`. With a `rim`: laid out as the language's `membrane` generator declares it
 /// (docs/LANGUAGE.md) instead: the horizontal links row by row, the vertical links row by row, then
-/// one rim (`sol`) and a link from it to each edge mass per missing neighbour, row by row.
-fn membrane(rows: usize, cols: usize, rimmed: bool) -> Model {
+/// one rim (`sol`) and a link from it to each edge mass per missing neighbour, row by row (no rim
+/// for `Rim::Free`; a hammer after it for `Rim::Struck`).
+fn membrane(rows: usize, cols: usize, rim: Option<Rim>) -> Model {
     let mut net = Network::new();
     let mut idx = Vec::with_capacity(rows * cols);
     for r in 0..rows {
@@ -161,7 +178,8 @@ fn membrane(rows: usize, cols: usize, rimmed: bool) -> Model {
     }
     let at = |r: usize, c: usize| idx[r * cols + c];
     let law = Law::Ref.interaction();
-    if rimmed {
+    let mut masses = rows * cols;
+    if let Some(rim) = rim {
         for r in 0..rows {
             for c in 0..cols - 1 {
                 net.add_link(law.clone(), at(r, c), at(r, c + 1));
@@ -172,14 +190,26 @@ fn membrane(rows: usize, cols: usize, rimmed: bool) -> Model {
                 net.add_link(law.clone(), at(r, c), at(r + 1, c));
             }
         }
-        let rim = ground(&mut net);
-        for r in 0..rows {
-            for c in 0..cols {
-                let missing = [r == 0, r == rows - 1, c == 0, c == cols - 1];
-                for _ in missing.iter().filter(|&&m| m) {
-                    net.add_link(law.clone(), rim, at(r, c));
+        if rim != Rim::Free {
+            let sol = ground(&mut net);
+            for r in 0..rows {
+                for c in 0..cols {
+                    let missing = [r == 0, r == rows - 1, c == 0, c == cols - 1];
+                    for _ in missing.iter().filter(|&&m| m) {
+                        net.add_link(law.clone(), sol, at(r, c));
+                    }
                 }
             }
+        }
+        if rim == Rim::Struck {
+            let hammer = net.add_material(Material::Mas {
+                m: 4.0 * M,
+                x0: 2.0,
+                v0: -0.01,
+            });
+            let felt = Interaction::But { k: K, z: Z, s: 0.0 };
+            net.add_link(felt, at(rows / 3, cols / 3), hammer);
+            masses += 1;
         }
     } else {
         for r in 0..rows {
@@ -203,11 +233,16 @@ fn membrane(rows: usize, cols: usize, rimmed: bool) -> Model {
     }
     let out = at(rows / 2, cols / 2);
     net.add_position_output(out);
-    let kind = if rimmed { "rimmed" } else { "membrane" };
+    let kind = match rim {
+        None => "membrane",
+        Some(Rim::Fixed) => "rimmed",
+        Some(Rim::Free) => "free",
+        Some(Rim::Struck) => "struck",
+    };
     Model {
         name: format!("{kind}_{rows}x{cols}"),
         net,
-        masses: rows * cols,
+        masses,
         out,
     }
 }
@@ -286,8 +321,8 @@ fn random(n: usize) -> Model {
 fn build(spec: &Spec) -> Model {
     match *spec {
         Spec::String(n, law) => string(n, law),
-        Spec::Membrane(r, c) => membrane(r, c, false),
-        Spec::Rimmed(r, c) => membrane(r, c, true),
+        Spec::Membrane(r, c) => membrane(r, c, None),
+        Spec::Rimmed(r, c, rim) => membrane(r, c, Some(rim)),
         Spec::Random(n) => random(n),
     }
 }
@@ -486,7 +521,7 @@ impl Stencil {
     fn new(rows: usize, cols: usize) -> Stencil {
         let w = cols + 2;
         let n = (rows + 2) * w;
-        let model = membrane(rows, cols, false);
+        let model = membrane(rows, cols, None);
         let mut x0 = vec![0.0; n];
         let mut x1 = vec![0.0; n];
         for r in 0..rows {
@@ -1078,7 +1113,7 @@ fn work() -> u64 {
 fn usage() -> ! {
     eprintln!(
         "usage: cargo bench -p cordis-core --bench engine -- [string [N]] [but [N]] [lnl [N]] \
-         [membrane [R C | RxC]] [rimmed R C | RxC] [random [N]]...\n(no model: every default model)\n   \
+         [membrane [R C | RxC]] [rimmed|free|struck R C | RxC] [random [N]]...\n(no model: every default model)\n   \
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
          threads, default N = 100000 masses, T = 2)\n   \
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
@@ -1099,16 +1134,17 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "string" => Some(Law::Ref),
             "but" => Some(Law::But),
             "lnl" => Some(Law::Lnl),
-            "membrane" | "rimmed" | "random" => None,
+            "membrane" | "rimmed" | "free" | "struck" | "random" => None,
             _ => usage(),
         };
         let first = args.get(i).map(String::as_str);
         let explicit = match (kind, first) {
-            ("membrane" | "rimmed", Some(a)) => {
-                let spec = if kind == "membrane" {
-                    Spec::Membrane
-                } else {
-                    Spec::Rimmed
+            ("membrane" | "rimmed" | "free" | "struck", Some(a)) => {
+                let spec = |r, c| match kind {
+                    "membrane" => Spec::Membrane(r, c),
+                    "rimmed" => Spec::Rimmed(r, c, Rim::Fixed),
+                    "free" => Spec::Rimmed(r, c, Rim::Free),
+                    _ => Spec::Rimmed(r, c, Rim::Struck),
                 };
                 if let Some((r, c)) = a
                     .split_once('x')
@@ -1134,7 +1170,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
         };
         match explicit {
             Some(Spec::String(n, _) | Spec::Random(n)) if n < 2 => usage(),
-            Some(Spec::Membrane(r, c) | Spec::Rimmed(r, c)) if r < 3 || c < 3 => usage(), // the strike is at (2,2)
+            Some(Spec::Membrane(r, c) | Spec::Rimmed(r, c, _)) if r < 3 || c < 3 => usage(), // the strike is at (2,2)
             Some(spec) => specs.push(spec),
             None => specs.extend(
                 DEFAULT_MODELS
@@ -1159,7 +1195,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
 /// network.
 fn thread_models(n: usize) -> Vec<Model> {
     let side = ((n as f64).sqrt().round() as usize).max(3);
-    vec![string(n, Law::Ref), membrane(side, side, false), random(n)]
+    vec![string(n, Law::Ref), membrane(side, side, None), random(n)]
 }
 
 /// The 1-minute load average, to print next to timings on a shared machine.

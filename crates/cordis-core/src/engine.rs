@@ -123,6 +123,16 @@ impl Run {
     }
 }
 
+/// How [`Kernel::build_with`] orders the mobile materials in storage, within their kind (MAS,
+/// CEL, ENX).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Mobiles {
+    /// By degree (declaration order within a degree): the gather's segments are long.
+    ByDegree,
+    /// In declaration order: a membrane's MAS stay in their rows whatever their degree.
+    Declared,
+}
+
 /// Shortest stretch of identical links that gets a uniform run of its own.
 const UNIFORM_MIN: usize = 8;
 /// Shortest arithmetic progression of link ends, or of edges, that gets a loop without indices
@@ -1136,14 +1146,23 @@ impl Kernel {
     /// whose links are scattered, or whose links and MAS are mostly read through index lists)
     /// also gets the pull step (`engine/pull.rs`) when the CPU has AVX-512: [`Engine::process`]
     /// then takes it, on one thread or on the pool's (`pull::PullJob`). A membrane of one REF
-    /// law and one inertia whose border MAS are tied to SOL in place of their missing neighbours
-    /// gets the grid step instead (`engine/grid.rs`, `grid::GridJob`), which keeps every force in
-    /// registers.
+    /// law and one inertia, its border fixed or free, alone or with at most half as much around
+    /// it, gets the grid step instead (`engine/grid.rs`, `grid::GridJob`), which keeps every
+    /// force in registers; its network is stored with its MAS in declaration order
+    /// ([`Mobiles::Declared`]).
     #[track_caller]
     fn new(net: &Network) -> Kernel {
+        if grid::may_hold(net) {
+            // (stored with its MAS in declaration order, so that a membrane's border and struck
+            // MAS stay in their rows)
+            let mut k = Kernel::build_with(net, false, true, Mobiles::Declared);
+            if let Some(g) = grid::Grid::new(&k) {
+                k.grid = Some(Box::new(g));
+                return k;
+            }
+        }
         let mut k = Kernel::choose(net);
-        k.grid = grid::Grid::new(&k).map(Box::new);
-        if k.grid.is_none() && (k.compact || k.scattered || k.mostly_indexed()) {
+        if k.compact || k.scattered || k.mostly_indexed() {
             k.pull = pull::Pull::new(&k).map(Box::new);
         }
         k
@@ -1231,6 +1250,17 @@ impl Kernel {
     /// in the order of their links. Stepping is not chosen yet (`compact` is false).
     #[track_caller]
     fn build(net: &Network, declaration_order: bool, bridge: bool) -> Kernel {
+        Kernel::build_with(net, declaration_order, bridge, Mobiles::ByDegree)
+    }
+
+    /// [`Kernel::build`] with the mobile materials ordered in storage as `mobiles` says.
+    #[track_caller]
+    fn build_with(
+        net: &Network,
+        declaration_order: bool,
+        bridge: bool,
+        mobiles: Mobiles,
+    ) -> Kernel {
         let nm = net.materials.len();
         assert!(
             u32::try_from(nm).is_ok(),
@@ -1244,8 +1274,9 @@ impl Kernel {
         };
         // Degree of each material (its link ends): mobile materials are grouped by degree within
         // their kind so that the gather runs in segments of one degree (fixed-length, branch-free
-        // sums; see `Kernel::update_mas`). ENF inputs are not counted: a MAS struck by one stays
-        // among its neighbours (in its membrane's row: see `engine/grid.rs`), a segment of its own.
+        // sums; see `Kernel::update_mas`), unless `mobiles` keeps them in declaration order (a
+        // membrane's rows, for the grid step: see `engine/grid.rs`). ENF inputs are not counted:
+        // a MAS struck by one stays among its neighbours, a segment of its own.
         let mut degree = vec![0usize; nm];
         for link in &net.links {
             for id in [link.a, link.b] {
@@ -1258,7 +1289,8 @@ impl Kernel {
         // stable: declaration order within a kind and degree
         order.sort_by_key(|&i| {
             let m = &net.materials[i];
-            (rank(m), if m.is_mobile() { degree[i] } else { 0 })
+            let by_degree = m.is_mobile() && mobiles == Mobiles::ByDegree;
+            (rank(m), if by_degree { degree[i] } else { 0 })
         });
         let mut slot = vec![0u32; nm];
         for (s, &i) in order.iter().enumerate() {
@@ -2186,6 +2218,46 @@ impl Kernel {
         &list[from..to]
     }
 
+    /// Link (slot) `l` as a run of its own, read through the index lists (a progression's cut
+    /// could land on an exception): `None` if it is in no run.
+    fn link_run(&self, l: usize) -> Option<Run> {
+        let run = (self.whole.runs.iter()).find(|r| (r.start..r.end).contains(&l))?;
+        Some(Run {
+            ends: Ends::Indexed,
+            ..run.cut(l, l + 1)
+        })
+    }
+
+    /// The links (slots) `l` where `wanted[l]`, as runs: each run of the kernel that has them
+    /// all, the others' stretches of wanted links read through the index lists. `None` if a
+    /// wanted link is in no run.
+    fn runs_of(&self, wanted: &[bool]) -> Option<Vec<Run>> {
+        let mut runs = Vec::new();
+        let mut covered = 0;
+        for run in &self.whole.runs {
+            let want = &wanted[run.start..run.end];
+            covered += want.iter().filter(|&&w| w).count();
+            if want.iter().all(|&w| w) {
+                runs.push(*run);
+                continue;
+            }
+            let mut l = run.start;
+            while l < run.end {
+                if !wanted[l] {
+                    l += 1;
+                    continue;
+                }
+                let end = l + wanted[l..run.end].iter().take_while(|&&w| w).count();
+                runs.push(Run {
+                    ends: Ends::Indexed,
+                    ..run.cut(l, end)
+                });
+                l = end;
+            }
+        }
+        (covered == wanted.iter().filter(|&&w| w).count()).then_some(runs)
+    }
+
     /// The links the outputs read (SOF and sums of them), each a run of its own, for the steps
     /// that keep no force buffer (the pull and grid steps): `None` if one is in no run.
     fn recorded_links(&self) -> Option<Vec<Run>> {
@@ -2204,16 +2276,7 @@ impl Kernel {
         }
         recorded.sort_unstable();
         recorded.dedup();
-        let mut runs = Vec::with_capacity(recorded.len());
-        for l in recorded {
-            let run = (self.whole.runs.iter()).find(|r| (r.start..r.end).contains(&l))?;
-            // (read through the index lists: a progression's cut could land on an exception)
-            runs.push(Run {
-                ends: Ends::Indexed,
-                ..run.cut(l, l + 1)
-            });
-        }
-        Some(runs)
+        recorded.into_iter().map(|l| self.link_run(l)).collect()
     }
 
     /// The outputs of a step of the pull or grid step: the forces of the `recorded` links (see
@@ -4248,6 +4311,74 @@ mod tests {
         }
     }
 
+    /// What [`surrounded`] puts around a membrane.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    enum Surround {
+        Nothing,
+        /// no SOL: every edge MAS tied to nothing in place of its missing neighbours
+        Free,
+        /// a hammer of inertia 2 declared before the membrane, falling onto MAS (1, 5) through a
+        /// BUT link, and a CEL after it tied to the last MAS
+        HammerFirst,
+        /// the hammer declared after the membrane
+        HammerLast,
+    }
+
+    /// [`membrane`] (layout 0) or [`rimmed`] (1, or 2: mixed) of `rows x cols` MAS of inertia 1,
+    /// with `around` around it.
+    fn surrounded(rows: usize, cols: usize, layout: usize, around: Surround) -> Network {
+        let net = match layout {
+            0 => membrane(rows, cols, |_| 1.0),
+            _ => rimmed(rows, cols, layout == 2),
+        };
+        let mut out = Network::new();
+        let hammer = Material::Mas {
+            m: 2.0,
+            x0: 0.02,
+            v0: -5e-4,
+        };
+        let first = (around == Surround::HammerFirst).then(|| out.add_material(hammer.clone()));
+        let shift = |id: MatId| MatId(id.0 + u32::from(first.is_some()));
+        for m in &net.materials {
+            out.add_material(m.clone());
+        }
+        let sol = |id: MatId| matches!(net.materials[id.index()], Material::Sol { .. });
+        let links =
+            (net.links.iter()).filter(|l| around != Surround::Free || !sol(l.a) && !sol(l.b));
+        for l in links {
+            out.add_link(l.law.clone(), shift(l.a), shift(l.b));
+        }
+        for o in &net.outputs {
+            match o {
+                Output::Position(m) => out.add_position_output(shift(*m)),
+                _ => unreachable!("the membranes record positions"),
+            };
+        }
+        if around == Surround::Free {
+            return out;
+        }
+        let hammer = first.unwrap_or_else(|| out.add_material(hammer));
+        let felt = Interaction::But {
+            k: 0.05,
+            z: 1e-3,
+            s: 0.0,
+        };
+        let struck = shift(MatId((cols + 5) as u32));
+        out.add_link(felt, struck, hammer);
+        let cel = out.add_material(Material::Cel {
+            m: 3.0,
+            k: 0.02,
+            z: 1e-3,
+            x0: 1e-3,
+            v0: 0.0,
+            r: 0.0,
+        });
+        let last = shift(MatId((rows * cols - 1) as u32));
+        out.add_link(Interaction::Ref { k: 0.07, z: 1e-3 }, last, cel);
+        out.add_position_output(hammer);
+        out
+    }
+
     /// The grid step is taken for the membranes it fits (`engine/grid.rs`) and for nothing else,
     /// and gives the gather step's bits: every output and, after each block, every link force.
     #[test]
@@ -4282,16 +4413,50 @@ mod tests {
             s: 1.0,
         };
         assert!(!taken(&changed(70, but)));
+        // what the grid step takes around a membrane: a link across, an ENF input, free edges,
+        // a hammer (declared before or after the membrane, of another inertia), a CEL
         let mut extra = membrane(6, 20, |_| 1.0);
         extra.add_link(Interaction::Ref { k: 0.1, z: 1e-4 }, MatId(3), MatId(44));
-        assert!(!taken(&extra));
-        // (an ENF input leaves its MAS in its row)
+        assert!(taken(&extra));
         let mut struck = membrane(6, 20, |_| 1.0);
         struck.add_force(MatId(30), Signal::Impulse { at: 9, amp: 0.1 });
         assert!(taken(&struck));
         let mut free = membrane(6, 20, |_| 1.0);
         free.links.remove(0);
-        assert!(!taken(&free));
+        assert!(taken(&free));
+        for layout in 0..3 {
+            assert!(taken(&surrounded(6, 20, layout, Surround::Free)));
+            assert!(taken(&surrounded(6, 20, layout, Surround::HammerFirst)));
+            assert!(taken(&surrounded(6, 20, layout, Surround::HammerLast)));
+        }
+        // too much around it (a string of 121 MAS for 120 in the membrane), a grid MAS of
+        // another inertia, a ground link of another stiffness, a link to a neighbour missing
+        let mut strung = membrane(6, 20, |_| 1.0);
+        let string: Vec<MatId> = (0..121)
+            .map(|_| {
+                strung.add_material(Material::Mas {
+                    m: 1.0,
+                    x0: 0.0,
+                    v0: 0.0,
+                })
+            })
+            .collect();
+        for pair in string.windows(2) {
+            strung.add_link(Interaction::Ref { k: 0.1, z: 0.0 }, pair[0], pair[1]);
+        }
+        strung.add_link(Interaction::Ref { k: 0.1, z: 0.0 }, MatId(50), string[0]);
+        assert!(!taken(&strung));
+        let mut heavy = surrounded(6, 20, 0, Surround::HammerFirst);
+        heavy.materials[40] = Material::Mas {
+            m: 2.0,
+            x0: 0.0,
+            v0: 0.0,
+        };
+        assert!(!taken(&heavy));
+        assert!(!taken(&changed(0, Interaction::Ref { k: 0.2, z: 1e-4 })));
+        let mut cut = membrane(6, 20, |_| 1.0);
+        cut.links.remove(5);
+        assert!(!taken(&cut));
         // a link declared from its right MAS to its left; one top MAS (not the first or last of
         // its row) summing its SOL term first, unlike its row
         let mut reversed = membrane(6, 20, |_| 1.0);
@@ -4303,17 +4468,24 @@ mod tests {
         early.links.insert(0, top5);
         assert!(!taken(&early));
         let layouts = [
-            (3, 17, 1.0, 0),
-            (9, 24, 1.5, 1),
-            (12, 33, 0.25, 0),
-            (7, 100, 1.0, 2),
-            (5, 18, 1.0, 1),
-            (4, 41, 1.0, 2),
+            (3, 17, 1.0, 0, Surround::Nothing),
+            (9, 24, 1.5, 1, Surround::Nothing),
+            (12, 33, 0.25, 0, Surround::Nothing),
+            (7, 100, 1.0, 2, Surround::Nothing),
+            (5, 18, 1.0, 1, Surround::Nothing),
+            (4, 41, 1.0, 2, Surround::Nothing),
+            (3, 17, 1.0, 0, Surround::Free),
+            (9, 24, 1.0, 1, Surround::Free),
+            (4, 41, 1.0, 2, Surround::Free),
+            (5, 18, 1.0, 0, Surround::HammerFirst),
+            (9, 24, 1.0, 1, Surround::HammerLast),
+            (4, 41, 1.0, 2, Surround::HammerFirst),
         ];
-        for (rows, cols, m, layout) in layouts {
-            let mut net = match layout {
-                0 => membrane(rows, cols, |_| m),
-                _ => rimmed(rows, cols, layout == 2),
+        for (rows, cols, m, layout, around) in layouts {
+            let mut net = match (layout, around) {
+                (0, Surround::Nothing) => membrane(rows, cols, |_| m),
+                (_, Surround::Nothing) => rimmed(rows, cols, layout == 2),
+                _ => surrounded(rows, cols, layout, around),
             };
             let last = LinkId(net.links.len() as u32 - 1);
             net.add_force_output(last);
@@ -4321,7 +4493,7 @@ mod tests {
             net.add_force(MatId(cols as u32 + 5), Signal::Constant(1e-4));
             net.add_force(MatId(0), Signal::Impulse { at: 30, amp: -0.1 });
             let mut grid = Engine::new(&net);
-            assert!(grid.k.grid.is_some(), "{rows}x{cols}, layout {layout}");
+            assert!(grid.k.grid.is_some(), "{rows}x{cols}, {layout} {around:?}");
             let mut gather = grid.clone();
             gather.k.grid = None;
             let mut moved = false;
@@ -4333,7 +4505,7 @@ mod tests {
                 let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
                 assert!(
                     bits(&a) == bits(&b),
-                    "{rows}x{cols} {layout}, block {block}"
+                    "{rows}x{cols} {layout} {around:?}, block {block}"
                 );
                 moved |= a.iter().any(|&v| v != 0.0);
                 for l in 0..net.links.len() {
@@ -4341,7 +4513,10 @@ mod tests {
                     assert_eq!(grid.link_force(l).to_bits(), gather.link_force(l).to_bits());
                 }
             }
-            assert!(moved, "{rows}x{cols} {layout}: the outputs never moved");
+            assert!(
+                moved,
+                "{rows}x{cols} {layout} {around:?}: the outputs never moved"
+            );
         }
     }
 

@@ -368,7 +368,8 @@ fn spring_networks_equal_the_reference() {
 /// registers, row by row) equal the reference at every step, in every output (positions, link
 /// forces, a sum), for widths of every remainder of 8, multiplied and divided inertias, SOL at
 /// their own positions or one rim, links declared as the C kit, the language's `membrane` or a
-/// mix of orders and ends, with and without ENF inputs, in blocks of any size.
+/// mix of orders and ends, with and without ENF inputs, alone, with free edges or in an
+/// instrument (a hammer, a CEL, an ENX, a link across), in blocks of any size.
 #[test]
 fn grid_membranes_equal_the_reference() {
     let sizes = [
@@ -381,14 +382,19 @@ fn grid_membranes_equal_the_reference() {
         (9, 19),
     ];
     for (i, &(rows, cols)) in sizes.iter().enumerate() {
-        for (m, shared_rim, inputs) in [
-            (1.0, false, true),
-            (0.5, true, false),
-            (1.5, false, false),
-            (1.25, true, true),
+        for (m, shared_rim, inputs, around) in [
+            (1.0, false, true, Around::Nothing),
+            (0.5, true, false, Around::Nothing),
+            (1.5, false, false, Around::Nothing),
+            (1.25, true, true, Around::Nothing),
+            (1.0, false, true, Around::Instrument),
+            (1.5, true, false, Around::Instrument),
+            (0.5, false, true, Around::FreeEdges),
+            (1.25, true, false, Around::FreeEdges),
         ] {
             let layout = [GridLayout::Kit, GridLayout::Rimmed, GridLayout::Mixed][i % 3];
-            let net = grid_membrane(i as u64 + 1, rows, cols, m, layout, shared_rim, inputs);
+            let seed = i as u64 + 1;
+            let net = grid_membrane(seed, rows, cols, m, layout, shared_rim, inputs, around);
             let steps = 1200;
             let expected = reference(&net, steps);
             for block in [1, 7, 1024] {
@@ -396,7 +402,8 @@ fn grid_membranes_equal_the_reference() {
                 assert_eq!(
                     first_bit_difference(&got, &expected),
                     None,
-                    "{rows}x{cols} {layout:?}, M {m}, rim {shared_rim}, inputs {inputs}, block {block}"
+                    "{rows}x{cols} {layout:?} {around:?}, M {m}, rim {shared_rim}, inputs {inputs}, \
+                     block {block}"
                 );
             }
             let ch = net.outputs.len();

@@ -441,23 +441,27 @@ fn a_blow_up_is_reported_at_the_same_step_and_module_with_threads() {
 }
 
 /// Membranes of the grid step's kind (on an AVX-512 CPU: one barrier per step, each thread its
-/// consecutive rows, the first recomputing the links up from the row above), as many threads as
-/// rows or more.
+/// consecutive rows, the first recomputing the links up from the row above, thread 0 stepping
+/// what is around the membrane), as many threads as rows or more.
 #[test]
 fn grid_membranes_match_on_any_thread_count_and_block_size() {
-    for (seed, rows, cols, m, steps, layout) in [
-        (1, 3, 16, 1.0, 300, GridLayout::Kit),
-        (2, 40, 37, 1.5, 400, GridLayout::Rimmed),
-        (3, 100, 100, 0.5, 150, GridLayout::Mixed),
-        (4, 9, 20, 1.0, 200, GridLayout::Rimmed),
+    for (seed, rows, cols, m, steps, layout, around) in [
+        (1, 3, 16, 1.0, 300, GridLayout::Kit, Around::Nothing),
+        (2, 40, 37, 1.5, 400, GridLayout::Rimmed, Around::Nothing),
+        (3, 100, 100, 0.5, 150, GridLayout::Mixed, Around::Nothing),
+        (4, 9, 20, 1.0, 200, GridLayout::Rimmed, Around::Nothing),
+        (5, 4, 16, 1.0, 300, GridLayout::Kit, Around::Instrument),
+        (6, 30, 33, 1.5, 400, GridLayout::Rimmed, Around::Instrument),
+        (7, 17, 40, 0.5, 300, GridLayout::Mixed, Around::FreeEdges),
+        (8, 5, 24, 1.0, 300, GridLayout::Rimmed, Around::FreeEdges),
     ] {
-        let net = grid_membrane(seed, rows, cols, m, layout, seed == 2, true);
+        let net = grid_membrane(seed, rows, cols, m, layout, seed == 2, true, around);
         let expected = single_thread_checked(&net, steps);
         check_all(
             &net,
             steps,
             &expected,
-            &format!("grid membrane {rows}x{cols} {layout:?}"),
+            &format!("grid membrane {rows}x{cols} {layout:?} {around:?}"),
         );
     }
 }

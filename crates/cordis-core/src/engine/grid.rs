@@ -1,9 +1,12 @@
 //! The grid step: a membrane, row by row, with every force in registers.
 //!
 //! A membrane is a grid of `rows x cols` MAS in consecutive storage slots (row `r`, column `c` at
-//! slot `r cols + c`), each tied to its four neighbours by REF links of one `K` and `Z`, and a
-//! border MAS to a SOL in place of each missing neighbour: as the C baseline kit declares it, or
-//! the language's `membrane` generator with a fixed border. The gather step computes every link
+//! slot `base + r cols + c`), each tied to its four neighbours by REF links of one `K` and `Z`,
+//! and a border MAS to a SOL in place of some or all of its missing neighbours: as the C baseline
+//! kit declares it, or the language's `membrane` generator with a fixed or free border. A network
+//! whose MAS may hold one ([`may_hold`]) is stored with its MAS in declaration order, whatever
+//! their degree, so that the membrane's border MAS and the MAS tied to something else stay in
+//! their rows ([`super::Mobiles`]). The gather step computes every link
 //! force into a buffer and the MAS loop reads four of them back per MAS: on a 100x100 membrane the
 //! buffer's traffic, not the arithmetic, bounds it (docs/BENCHMARKS.md). The grid step keeps no
 //! force buffer. Going down the rows, eight MAS at a time:
@@ -17,9 +20,9 @@
 //! - `F(n) = (((0 + f_left) - f_right) + f_up) - f_down` and `x(n+1)` are computed and stored.
 //!
 //! **Why the bits are the reference's.** `Grid::new` takes a network only if each MAS's first
-//! four terms are its links (then come its ENF inputs, if any): to each neighbour, a REF link of
-//! the one `K` and `Z`, the MAS end 2 of the link on its left and above, end 1 of the others; in
-//! place of each missing neighbour, a link to a SOL, the MAS at either end. Every link force is
+//! terms are its grid's links: to each neighbour, a REF link of the one `K` and `Z`, the MAS end
+//! 2 of the link on its left and above, end 1 of the others; in place of some or all of its
+//! missing neighbours, a link to a SOL, the MAS at either end. Every link force is
 //! `K (x1 - x2) + Z ((x1 - x1') - (x2 - x2'))` with the same operands ([`super::LinkLaw`]). A
 //! ground's term is `K (x_g - x) + Z (v_g - v)` whichever end the MAS is: `F -= K (x - x_g) + Z
 //! (v - v_g)` adds the same value, since rounding is symmetric (`a - b = -(b - a)`, `K (-y) =
@@ -31,10 +34,24 @@
 //! the inner MAS of a row all in one, left-right-up-down or left-right-down-up (the top row of
 //! the language's `membrane`, whose rim links come last), which the vector loop sums; the row's
 //! first and last MAS in any (the first recomputed after the loop, the last in the scalar tail).
-//! The update is `mas_with`'s. A MAS with ENF inputs is recomputed after its rows, term by term
-//! (as `update_mas` does its exceptions). The loads and shuffles are AVX-512 (an [`Avx512`] token
-//! is the CPU's proof); `tests/engine.rs` compares every step with the reference, and
-//! `engine.rs`'s tests with the gather step.
+//! The update is `mas_with`'s.
+//!
+//! **Free sides.** A missing neighbour without a SOL (a free border) gets the MAS itself as its
+//! SOL: the link of a MAS to itself is `K (x - x) + Z (v - v)`, a zero, for a finite `x` and `v`,
+//! and a zero added to `F`, which is never `-0.0`, gives `F` back. (A non-finite `x` or `v` makes
+//! the MAS's links to its neighbours non-finite in the reference as well: a blow-up either way,
+//! which the gather step replays.) Its side comes after the MAS's terms in its [`Order`]: the top row
+//! of a free membrane sums left-right-down, the bottom row left-right-up.
+//!
+//! **Around the membrane.** The grid's terms of a MAS come first; a MAS with more (a link to a
+//! hammer, a string, another MAS of the grid; ENF inputs) is a *fix*, recomputed after its rows
+//! term by term, each link by its own law (as `update_mas` does its exceptions). The moving
+//! materials outside the grid (before it or after it in storage: a hammer, a CEL, an ENX) are
+//! stepped each step as the gather step does, their links' forces computed into `sf` first
+//! ([`Grid::step_outside`]); a model where they, their links and the fixes' terms are more than
+//! half the grid's MAS keeps the gather step ([`OUTSIDE_SHARE`]). The loads and shuffles are
+//! AVX-512 (an [`Avx512`] token is the CPU's proof); `tests/engine.rs` compares every step with
+//! the reference, and `engine.rs`'s tests with the gather step.
 
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
@@ -43,7 +60,9 @@ use std::ops::Range;
 use crate::lanes::{Avx512, LANES};
 use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
 
-use super::{by_div, by_inv, Kernel, Law, LinkLaw, MasLaw, RefLaw, Roles, Run, State, NEG};
+use super::{by_div, by_inv, Forces, Kernel, Law, LinkLaw, MasLaw, Positions, RefLaw, Roles, Run};
+use super::{State, NEG};
+use crate::{Material, Network};
 
 /// Fewest columns (so that a row has at least one whole block and its tail) and rows.
 const COLS_MIN: usize = 2 * LANES;
@@ -87,6 +106,9 @@ impl Order {
 #[derive(Clone, Debug)]
 pub(super) struct Grid {
     cpu: Avx512,
+    /// The storage slot of the MAS of row 0, column 0: row `r`, column `c` is at `base + r cols +
+    /// c`
+    base: usize,
     rows: usize,
     cols: usize,
     k: f64,
@@ -104,10 +126,72 @@ pub(super) struct Grid {
     mid: Vec<Order>,
     first: Vec<Order>,
     last: Vec<Order>,
-    /// The MAS with ENF inputs (ascending storage slots): recomputed after their rows.
-    fixes: Vec<u32>,
+    /// The MAS with terms after their grid links (links of any kind, ENF inputs), ascending:
+    /// recomputed after their rows from `terms`.
+    fixes: Vec<Fix>,
+    terms: Vec<FixTerm>,
+    /// The single-link runs of the fixes' link terms.
+    fix_runs: Vec<Run>,
+    /// The links of the moving materials outside the grid (slots `0..base` and `base + rows cols
+    /// ..n_mce`), stepped as the gather step does, after the links of `outside_runs` and the ENF
+    /// inputs are computed into `sf`.
+    outside_runs: Vec<Run>,
     /// The links the outputs read (see [`Kernel::recorded_links`]).
     recorded: Vec<Run>,
+}
+
+/// A MAS of the grid recomputed term by term: its storage slot and its terms, `Grid::terms[terms]`.
+#[derive(Clone, Debug)]
+struct Fix {
+    slot: u32,
+    terms: Range<u32>,
+}
+
+/// A term of a [`Fix`], in the MAS's order.
+#[derive(Clone, Copy, Debug)]
+enum FixTerm {
+    /// The force of the link of `Grid::fix_runs[run]`, negated where the MAS is its end 1
+    Link { run: u32, neg: bool },
+    /// The sample of ENF input `i`
+    Input(u32),
+}
+
+/// The moving materials outside the grid, their links and the fixes' terms may be at most `1 /
+/// OUTSIDE_SHARE` of the grid's MAS: they are stepped one by one (or as the gather step does),
+/// and a model that is mostly something else keeps the gather step.
+const OUTSIDE_SHARE: usize = 2;
+
+/// Whether the MAS of `net`, in declaration order, may hold a membrane the grid step takes: one
+/// MAS tied to the next and to one at least [`COLS_MIN`] further, and the MAS that far further
+/// tied to the next (`Grid::new` decides; a cheap test, so that only such networks
+/// are built with their MAS in declaration order, see [`super::Mobiles`]).
+pub(super) fn may_hold(net: &Network) -> bool {
+    let mut rank = vec![u32::MAX; net.materials.len()];
+    let mut n = 0;
+    for (r, m) in rank.iter_mut().zip(&net.materials) {
+        if matches!(m, Material::Mas { .. }) {
+            (*r, n) = (n, n + 1);
+        }
+    }
+    let n = n as usize;
+    if n < COLS_MIN * ROWS_MIN {
+        return false;
+    }
+    // for each MAS, whether a link ties it to the next, and the furthest after it one does
+    let (mut next, mut far) = (vec![false; n], vec![0; n]);
+    for link in &net.links {
+        let (Some(&a), Some(&b)) = (rank.get(link.a.index()), rank.get(link.b.index())) else {
+            continue;
+        };
+        if a != u32::MAX && b != u32::MAX && a != b {
+            let (lo, hi) = (a.min(b) as usize, a.max(b) as usize);
+            next[lo] |= hi == lo + 1;
+            far[lo] = far[lo].max(hi - lo);
+        }
+    }
+    (0..n)
+        .find(|&s| next[s] && far[s] >= COLS_MIN)
+        .is_some_and(|s| s + far[s] < n && next[s + far[s]])
 }
 
 /// The `x(n+1)` of one row: the whole state, the row below's `x(n)` and `x(n-1)`, and the
@@ -127,37 +211,60 @@ impl Grid {
     /// the CPU has AVX-512.
     pub(super) fn new(k: &Kernel) -> Option<Grid> {
         let cpu = k.tails()?;
-        let n = k.n_mas;
-        if n != k.n_mce || n < COLS_MIN * ROWS_MIN {
-            return None;
-        }
-        let (m, div) = match k.mas {
-            MasLaw::UniformInv(inv) => (inv, false),
-            MasLaw::UniformDiv(m) => (m, true),
-            _ => return None,
-        };
         let edges = |s: usize| &k.eidx[k.eoff[s] as usize..k.eoff[s + 1] as usize];
         let link = |e: u32| (e & !NEG) as usize;
-        // the other end of each term of MAS 0 (its neighbours are MAS 1 and MAS `cols`)
+        // the other end of a material's term, if it is a link's
         let other = |e: u32| {
             let l = link(e);
             let end = if e & NEG != 0 { &k.lb } else { &k.la };
             end.get(l).map(|&o| o as usize)
         };
-        let cols = edges(0)
-            .iter()
-            .filter_map(|&e| other(e))
-            .filter(|&o| o < n)
-            .max()?;
-        if cols < COLS_MIN || !n.is_multiple_of(cols) || n / cols < ROWS_MIN {
+        // whether MAS `s` is tied to the next, and the furthest MAS after it it is tied to
+        let reach = |s: usize| {
+            let after = edges(s).iter().filter_map(|&e| other(e));
+            let after = after.filter(|&o| o > s && o < k.n_mas);
+            (
+                after.clone().any(|o| o == s + 1),
+                after.max().map_or(0, |o| o - s),
+            )
+        };
+        // the grid: from the first MAS tied to the next and to one a row further, down the rows
+        // whose first MAS is tied to the next row's
+        let base = (0..k.n_mas).find(|&s| {
+            let (next, far) = reach(s);
+            next && far >= COLS_MIN
+        })?;
+        let cols = reach(base).1;
+        let first_of = |r: usize| base + r * cols;
+        let mut rows = 1;
+        while first_of(rows + 1) <= k.n_mas
+            && edges(first_of(rows - 1))
+                .iter()
+                .any(|&e| other(e) == Some(first_of(rows)))
+        {
+            rows += 1;
+        }
+        if rows < ROWS_MIN {
             return None;
         }
-        let rows = n / cols;
+        let n = rows * cols;
+        let uniform = |v: &[f64]| {
+            v.iter()
+                .all(|m| m.to_bits() == v[0].to_bits())
+                .then(|| v[0])
+        };
+        let mine = base..base + n;
+        let (m, div) = match &k.mas {
+            MasLaw::UniformInv(inv) => (*inv, false),
+            MasLaw::UniformDiv(m) => (*m, true),
+            MasLaw::Inv(inv) => (uniform(&inv[mine.clone()])?, false),
+            MasLaw::Div(ms) => (uniform(&ms[mine.clone()])?, true),
+        };
         let mut law = vec![Law::Ref; k.nl];
         for run in &k.whole.runs {
             law[run.start..run.end].fill(run.law);
         }
-        let first = link(*edges(0).first()?);
+        let first = link(*edges(base).first()?);
         let (kk, zz) = (*k.lk.get(first)?, *k.lz.get(first)?);
         let same = |l: usize| {
             l < k.nl
@@ -167,6 +274,7 @@ impl Grid {
         };
         let mut g = Grid {
             cpu,
+            base,
             rows,
             cols,
             k: kk,
@@ -181,20 +289,14 @@ impl Grid {
             first: vec![Order::CANONICAL; rows],
             last: vec![Order::CANONICAL; rows],
             fixes: Vec::new(),
+            terms: Vec::new(),
+            fix_runs: Vec::new(),
+            outside_runs: Vec::new(),
             recorded: k.recorded_links()?,
         };
-        for s in 0..n {
-            let (r, c) = (s / cols, s % cols);
+        for s in mine.clone() {
+            let (r, c) = ((s - base) / cols, (s - base) % cols);
             let e = edges(s);
-            let (Some(terms), inputs) = (e.first_chunk::<4>(), e.get(4..)?) else {
-                return None;
-            };
-            if inputs.iter().any(|&i| i & NEG != 0 || (i as usize) < k.nl) {
-                return None;
-            }
-            if !inputs.is_empty() {
-                g.fixes.push(s as u32);
-            }
             // each side's neighbour, if it has one, and the sign its term must have (the MAS is
             // end 2 of the link on its left and above, end 1 of the others)
             let neighbour = [
@@ -203,42 +305,58 @@ impl Grid {
                 (r > 0).then(|| s - cols),
                 (r + 1 < rows).then_some(s + cols),
             ];
+            let missing = (0..4).filter(|&d| neighbour[d].is_none());
+            // the grid's terms come first: a link to each neighbour, and a link to a SOL for
+            // some of the missing ones; the terms after them are the MAS's own (a fix)
             let mut taken = [false; 4];
             let mut sides = [0; 4];
             let mut grounds = Vec::new();
-            for (i, &t) in terms.iter().enumerate() {
-                let (l, o) = (link(t), other(t)?);
-                let mine = if t & NEG != 0 { k.la[l] } else { k.lb[l] };
-                if !same(l) || mine as usize != s {
-                    return None;
+            let mut t = 0;
+            for &term in e {
+                let (l, Some(o)) = (link(term), other(term)) else {
+                    break; // an input
+                };
+                let end = if term & NEG != 0 { k.la[l] } else { k.lb[l] };
+                if !same(l) || end as usize != s {
+                    break;
                 }
                 if o >= k.n_mce {
                     // a link to a SOL: its term is `K (x_g - x) + Z (v_g - v)` whichever end
                     // the MAS is (up to the sign of a zero), as a missing neighbour's below
-                    grounds.push((i, o as u32));
-                    continue;
+                    if grounds.len() == missing.clone().count() {
+                        break;
+                    }
+                    grounds.push((t, o as u32));
+                } else {
+                    let Some(side) = neighbour.iter().position(|&b| b == Some(o)) else {
+                        break;
+                    };
+                    let end1 = side == RIGHT || side == DOWN;
+                    if taken[side] || (term & NEG != 0) != end1 {
+                        break;
+                    }
+                    (taken[side], sides[t]) = (true, side);
                 }
-                let side = neighbour.iter().position(|&b| b == Some(o))?;
-                let end1 = side == RIGHT || side == DOWN;
-                if taken[side] || (t & NEG != 0) != end1 {
-                    return None;
-                }
-                (taken[side], sides[i]) = (true, side);
+                t += 1;
             }
-            // the grounds, in their terms' order, stand for the missing neighbours in side order
-            let missing = (0..4).filter(|&d| neighbour[d].is_none());
-            if grounds.len() != missing.clone().count()
-                || (0..4).any(|d| neighbour[d].is_some() && !taken[d])
-            {
+            if (0..4).any(|d| neighbour[d].is_some() && !taken[d]) {
                 return None;
             }
-            for ((i, ground), side) in grounds.into_iter().zip(missing) {
-                sides[i] = side;
+            // the grounds, in their terms' order, stand for the missing neighbours in side
+            // order; a missing neighbour without one (a free border) is the MAS itself, whose
+            // link to itself is a zero, added after the MAS's terms (see the module's doc)
+            let mut free = t;
+            for (i, side) in missing.enumerate() {
+                let (at, slot) = grounds.get(i).copied().unwrap_or_else(|| {
+                    free += 1;
+                    (free - 1, s as u32)
+                });
+                sides[at] = side;
                 match side {
-                    LEFT => g.left[r] = ground,
-                    RIGHT => g.right[r] = ground,
-                    UP => g.top[c] = ground,
-                    _ => g.bottom[c] = ground,
+                    LEFT => g.left[r] = slot,
+                    RIGHT => g.right[r] = slot,
+                    UP => g.top[c] = slot,
+                    _ => g.bottom[c] = slot,
                 }
             }
             let order = Order::of(sides);
@@ -254,8 +372,55 @@ impl Grid {
             } else if order != g.mid[r] {
                 return None;
             }
+            if t < e.len() {
+                g.fix(k, s, e)?;
+            }
         }
-        Some(g)
+        g.find_outside(k, &mine)?;
+        let outside = k.n_mce - n
+            + g.outside_runs
+                .iter()
+                .map(|r| r.end - r.start)
+                .sum::<usize>();
+        (outside + g.terms.len() <= n / OUTSIDE_SHARE).then_some(g)
+    }
+
+    /// Makes MAS `s`, whose terms are `edges`, a fix.
+    fn fix(&mut self, k: &Kernel, s: usize, edges: &[u32]) -> Option<()> {
+        let from = self.terms.len() as u32;
+        for &e in edges {
+            let l = (e & !NEG) as usize;
+            self.terms.push(if l < k.nl {
+                self.fix_runs.push(k.link_run(l)?);
+                FixTerm::Link {
+                    run: self.fix_runs.len() as u32 - 1,
+                    neg: e & NEG != 0,
+                }
+            } else {
+                FixTerm::Input((l - k.nl) as u32)
+            });
+        }
+        let terms = from..self.terms.len() as u32;
+        self.fixes.push(Fix {
+            slot: s as u32,
+            terms,
+        });
+        Some(())
+    }
+
+    /// The runs of the links of the moving materials outside `mine` (the grid's slots).
+    fn find_outside(&mut self, k: &Kernel, mine: &Range<usize>) -> Option<()> {
+        let mut wanted = vec![false; k.nl];
+        // (an ENX has no terms: its position is its signal)
+        for s in (0..mine.start).chain(mine.end..k.n_mc) {
+            for &e in &k.eidx[k.eoff[s] as usize..k.eoff[s + 1] as usize] {
+                if let Some(w) = wanted.get_mut((e & !NEG) as usize) {
+                    *w = true;
+                }
+            }
+        }
+        self.outside_runs = k.runs_of(&wanted)?;
+        Some(())
     }
 
     /// The scratch one thread needs: five row buffers (velocities of two rows, the links up,
@@ -275,7 +440,13 @@ impl Grid {
 
     /// The storage slots of the MAS of `rows`.
     pub(super) fn slots(&self, rows: &Range<usize>) -> Range<usize> {
-        rows.start * self.cols..rows.end * self.cols
+        self.base + rows.start * self.cols..self.base + rows.end * self.cols
+    }
+
+    /// The storage slots of the moving materials outside the grid: before it and after it.
+    pub(super) fn outside(&self, k: &Kernel) -> [Range<usize>; 2] {
+        let end = self.base + self.rows * self.cols;
+        [0..self.base, end..k.n_mce]
     }
 
     /// Steps `frames` times from `st` on the calling thread, writing the outputs into `out` (see
@@ -283,15 +454,49 @@ impl Grid {
     pub(super) fn block(&self, k: &Kernel, st: &mut State, frames: usize, out: &mut [f64]) {
         let ch = k.channels.len();
         let all = 0..self.rows;
+        let mine = self.slots(&all);
+        let [_, after] = self.outside(k);
         for frame in 0..frames {
             let roles = Roles::at(st.c);
             let (cur, prev, next) = roles.split(&mut st.pos);
             let frame_out = &mut out[frame * ch..(frame + 1) * ch];
             k.record_with(&self.recorded, cur, prev, &mut st.sf, frame_out);
-            let next = &mut next[self.slots(&all)];
+            let (before, rest) = next.split_at_mut(mine.start);
+            let (next, rest) = rest.split_at_mut(mine.len());
+            let after = &mut rest[..after.len()];
+            self.step_outside(k, st.n, (cur, prev), [before, after], &mut st.sf);
             self.step(k, st.n, all.clone(), cur, prev, next, &mut st.grid);
             st.n += 1;
             st.c = roles.next;
+        }
+    }
+
+    /// Step `n` of the moving materials outside the grid: the ENF inputs and the links of
+    /// `outside_runs` into `sf`, then `x(n+1)` of the materials before and after the grid into
+    /// `next` (exactly their slots, [`Grid::outside`]), as the gather step computes them.
+    pub(super) fn step_outside(
+        &self,
+        k: &Kernel,
+        n: u64,
+        (cur, prev): (&[f64], &[f64]),
+        next: [&mut [f64]; 2],
+        sf: &mut [f64],
+    ) {
+        let slots = self.outside(k);
+        if slots.iter().all(|s| s.is_empty()) {
+            return;
+        }
+        k.inputs(0..k.enf.len(), n, &mut sf[k.nl..]);
+        let state = Positions::new(k, cur, prev);
+        for run in &self.outside_runs {
+            k.run_links(run, &state, &mut sf[run.start..run.end]);
+        }
+        let sf = Forces(sf);
+        for (mats, next) in slots.into_iter().zip(next) {
+            if !mats.is_empty() {
+                let seg = k.first_segment(mats.start);
+                k.materials_phase(mats, seg, n, cur, prev, next, sf);
+            }
         }
     }
 
@@ -321,7 +526,7 @@ impl Grid {
         let link =
             |xa: f64, va: f64, xb: f64, vb: f64| RefLaw::force(self.k, self.z, 0.0, xa, va, xb, vb);
         // the first row's velocities, and the links into it from above
-        let r0 = rows.start * cols;
+        let r0 = self.base + rows.start * cols;
         for (c, v) in vc[..cols].iter_mut().enumerate() {
             *v = cur[r0 + c] - prev[r0 + c];
         }
@@ -340,7 +545,7 @@ impl Grid {
         }
         for r in rows.clone() {
             let below = if r + 1 < self.rows {
-                let b = (r + 1) * cols..(r + 2) * cols;
+                let b = self.slots(&(r + 1..r + 2));
                 (&cur[b.clone()], &prev[b])
             } else {
                 (&gx[..cols], &gp[..cols])
@@ -358,27 +563,30 @@ impl Grid {
             self.row_for_cpu(r, args);
             std::mem::swap(&mut vc, &mut vn);
         }
-        // the MAS with inputs, term by term (their links, then their inputs)
+        // the MAS with terms of their own, term by term
         let slots = self.slots(&rows);
-        let lo = self.fixes.partition_point(|&s| (s as usize) < slots.start);
-        for &s in &self.fixes[lo..] {
-            let s = s as usize;
+        let lo = self
+            .fixes
+            .partition_point(|f| (f.slot as usize) < slots.start);
+        let state = Positions::new(k, cur, prev);
+        for fix in &self.fixes[lo..] {
+            let s = fix.slot as usize;
             if s >= slots.end {
                 break;
             }
             let mut f = 0.0;
-            for &j in &k.eidx[k.eoff[s] as usize..k.eoff[s + 1] as usize] {
-                let l = (j & !NEG) as usize;
-                if l >= k.nl {
-                    f += k.enf[l - k.nl].at(n);
-                    continue;
-                }
-                let (a, b) = (k.la[l] as usize, k.lb[l] as usize);
-                let t = link(cur[a], cur[a] - prev[a], cur[b], cur[b] - prev[b]);
-                if j & NEG != 0 {
-                    f -= t;
-                } else {
-                    f += t;
+            for t in &self.terms[fix.terms.start as usize..fix.terms.end as usize] {
+                match *t {
+                    FixTerm::Input(i) => f += k.enf[i as usize].at(n),
+                    FixTerm::Link { run, neg } => {
+                        let mut lf = [0.0];
+                        k.run_links(&self.fix_runs[run as usize], &state, &mut lf);
+                        if neg {
+                            f -= lf[0];
+                        } else {
+                            f += lf[0];
+                        }
+                    }
                 }
             }
             let (x, xp) = (cur[s], prev[s]);
@@ -440,7 +648,7 @@ impl Grid {
             vn,
             up,
         } = a;
-        let row = r * cols;
+        let row = self.base + r * cols;
         // every access below is within these (checked once here)
         let (xr, pr) = (&x[row..row + cols], &xp[row..row + cols]);
         assert!(xd.len() == cols && pd.len() == cols && next.len() == cols);
@@ -570,9 +778,11 @@ impl Grid {
 /// | --- | --- |
 /// | `pos[cur]`, `pos[prev]` | the slots of its rows in `pos[next]`, its part of `scratch` |
 ///
-/// Thread 0 also records the outputs: it reads `pos[cur]` and `pos[prev]`, and writes `sf` (the
-/// recorded links' forces) and its frame of the output, which no other thread touches. Nothing a
-/// step reads is written in it; the shares' rows are disjoint, and so are their parts of
+/// Thread 0 also records the outputs and steps the materials outside the grid: it reads
+/// `pos[cur]` and `pos[prev]`, and writes `sf` (the recorded links' forces, the ENF inputs, the
+/// outside links' forces), the outside slots of `pos[next]` (no share's rows) and its frame of
+/// the output, which no other thread touches (the fixes compute their own link forces, and
+/// read no `sf`). Nothing a step reads is written in it; the shares' rows are disjoint, and so are their parts of
 /// `scratch` (`scratch_len` each); the one barrier after each step orders its writes of
 /// `pos[next]` before the next step's reads (where it is `cur`). Which thread steps a row changes
 /// no bit: every value is computed from the same operands whoever computes it (a share's first
@@ -607,6 +817,7 @@ impl GridJob<'_> {
         let k = self.k;
         let rows = self.shares[t].clone();
         let slots = self.grid.slots(&rows);
+        let outside = self.grid.outside(k);
         let len = self.grid.scratch_len();
         let ch = k.channels.len();
         let mut c = self.c0;
@@ -614,18 +825,20 @@ impl GridJob<'_> {
             let r = Roles::at(c);
             // SAFETY: each access follows the table in the type's documentation: shared reads of
             // buffers nobody writes in this step, exclusive writes to this share's slots and
-            // scratch (or, on thread 0, to `sf`), every slice dropped before the barrier that
-            // ends the step.
+            // scratch (or, on thread 0, to `sf` and the outside slots of `pos[next]`), every
+            // slice dropped before the barrier that ends the step.
             unsafe {
                 let (cur, prev) = (self.pos[r.cur].read(), self.pos[r.prev].read());
+                let n = self.n0 + s as u64;
                 if let Some(out) = out.as_deref_mut() {
                     let sf = self.sf.write(0..k.sf_len);
                     let frame = &mut out[s * ch..(s + 1) * ch];
                     k.record_with(&self.grid.recorded, cur, prev, sf, frame);
+                    let outside = outside.clone().map(|o| self.pos[r.next].write(o));
+                    self.grid.step_outside(k, n, (cur, prev), outside, sf);
                 }
                 let next = self.pos[r.next].write(slots.clone());
                 let scratch = self.scratch.write(t * len..(t + 1) * len);
-                let n = self.n0 + s as u64;
                 self.grid.step(k, n, rows.clone(), cur, prev, next, scratch);
             }
             barrier.wait()?;

@@ -425,12 +425,28 @@ pub enum GridLayout {
     Mixed,
 }
 
+/// What [`grid_membrane`] puts around its membrane: every setting the grid step takes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Around {
+    /// Nothing: the membrane alone, every border MAS tied to SOL.
+    Nothing,
+    /// A free top row and left column: their MAS tied to nothing in place of their missing
+    /// neighbours (the right column and bottom row to SOL).
+    FreeEdges,
+    /// An instrument: a hammer (a MAS of inertia 4, declared before the membrane, falling onto
+    /// MAS (1, 5) through a BUT link), a CEL and an ENX declared after it and tied to two MAS,
+    /// and a link between two MAS of the membrane that are not neighbours.
+    Instrument,
+}
+
 /// A membrane the grid step takes (`engine/grid.rs`): `rows x cols` MAS of inertia `m`, row by
 /// row, each tied by REF links of one K and Z to its four neighbours, and a border MAS to a SOL
-/// in place of each missing one, declared as `layout` says. The SOL sit at seeded positions, one
-/// per border link or one for all (`shared_rim`); every MAS starts at a seeded position and some
-/// with a velocity. With `inputs`, ENF on two MAS (two on one). Outputs: SOX on five MAS, SOF on
-/// a horizontal, a vertical and a border link, and a sum of a position and a force.
+/// in place of each missing one, declared as `layout` says, with `around` around it. The SOL
+/// sit at seeded positions, one per border link or one for all (`shared_rim`); every MAS starts
+/// at a seeded position and some with a velocity. With `inputs`, ENF on two MAS (two on one).
+/// Outputs: SOX on five MAS, SOF on a horizontal, a vertical and a border link, and a sum of a
+/// position and a force; with an instrument, also SOX on the hammer and SOF on its link.
+#[allow(clippy::too_many_arguments)] // the settings the tests vary
 pub fn grid_membrane(
     seed: u64,
     rows: usize,
@@ -439,9 +455,19 @@ pub fn grid_membrane(
     layout: GridLayout,
     shared_rim: bool,
     inputs: bool,
+    around: Around,
 ) -> Network {
     let mut rng = Lcg(seed);
     let mut net = Network::new();
+    let hammer = (around == Around::Instrument).then(|| {
+        net.add_material(Material::Mas {
+            m: 4.0,
+            x0: 3e-3,
+            v0: -2e-5,
+        })
+    });
+    // (a free top row and left column: no SOL in place of their missing neighbours)
+    let free = around == Around::FreeEdges;
     let ids: Vec<MatId> = (0..rows * cols)
         .map(|i| {
             let v0 = if i % 7 == 3 {
@@ -477,14 +503,18 @@ pub fn grid_membrane(
     match layout {
         GridLayout::Kit => {
             for r in 0..rows {
-                border = Some(grounded(&mut net, at(r, 0), false));
+                if !free {
+                    border = Some(grounded(&mut net, at(r, 0), false));
+                }
                 for c in 0..cols - 1 {
                     horizontal = Some(net.add_link(law.clone(), at(r, c), at(r, c + 1)));
                 }
                 grounded(&mut net, at(r, cols - 1), true);
             }
             for c in 0..cols {
-                grounded(&mut net, at(0, c), false);
+                if !free {
+                    grounded(&mut net, at(0, c), false);
+                }
                 for r in 0..rows - 1 {
                     vertical = Some(net.add_link(law.clone(), at(r, c), at(r + 1, c)));
                 }
@@ -493,7 +523,7 @@ pub fn grid_membrane(
         }
         GridLayout::Rimmed | GridLayout::Mixed => {
             let mixed = layout == GridLayout::Mixed;
-            if mixed {
+            if mixed && !free {
                 for r in (0..rows).step_by(2) {
                     border = Some(grounded(&mut net, at(r, 0), true));
                 }
@@ -509,7 +539,7 @@ pub fn grid_membrane(
                 }
             }
             if mixed {
-                for c in 0..cols {
+                for c in (0..cols).filter(|_| !free) {
                     grounded(&mut net, at(0, c), false);
                 }
                 for r in 0..rows {
@@ -518,13 +548,18 @@ pub fn grid_membrane(
                 for c in 0..cols {
                     grounded(&mut net, at(rows - 1, c), true);
                 }
-                for r in (1..rows).step_by(2) {
+                for r in (1..rows).step_by(2).filter(|_| !free) {
                     grounded(&mut net, at(r, 0), false);
                 }
             } else {
                 for r in 0..rows {
                     for c in 0..cols {
-                        let missing = [r == 0, r == rows - 1, c == 0, c == cols - 1];
+                        let missing = [
+                            r == 0 && !free,
+                            r == rows - 1,
+                            c == 0 && !free,
+                            c == cols - 1,
+                        ];
                         for _ in missing.iter().filter(|&&m| m) {
                             border = Some(grounded(&mut net, at(r, c), false));
                         }
@@ -532,6 +567,36 @@ pub fn grid_membrane(
                 }
             }
         }
+    }
+    // (with free edges, a link to the right or bottom SOL: the last declared)
+    let border = border.unwrap_or(cordis_core::LinkId(net.links.len() as u32 - 1));
+    if let Some(hammer) = hammer {
+        let felt = Interaction::But {
+            k: 0.05,
+            z: 1e-3,
+            s: 0.0,
+        };
+        let hit = net.add_link(felt, at(1, 5), hammer);
+        let cel = net.add_material(Material::Cel {
+            m: 3.0,
+            k: 0.02,
+            z: 1e-3,
+            x0: 1e-3,
+            v0: 0.0,
+            r: 0.0,
+        });
+        net.add_link(Interaction::Ref { k: 0.07, z: 1e-3 }, at(rows - 1, 2), cel);
+        let enx = net.add_material(Material::Enx {
+            signal: Signal::Sine {
+                freq: 0.01,
+                amp: 1e-3,
+                phase: 0.3,
+            },
+        });
+        net.add_link(Interaction::Res { k: 0.03 }, enx, at(0, cols - 3));
+        net.add_link(law.clone(), at(1, 2), at(rows - 1, cols - 4));
+        net.add_position_output(hammer);
+        net.add_force_output(hit);
     }
     if inputs {
         net.add_force(at(rows / 2, 1), Signal::Impulse { at: 3, amp: 0.01 });
@@ -550,7 +615,7 @@ pub fn grid_membrane(
     ] {
         net.add_position_output(at(r, c));
     }
-    let [horizontal, vertical, border] = [horizontal, vertical, border].map(Option::unwrap);
+    let [horizontal, vertical] = [horizontal, vertical].map(Option::unwrap);
     for l in [horizontal, vertical, border] {
         net.add_force_output(l);
     }
