@@ -4320,7 +4320,8 @@ mod tests {
         /// a hammer of inertia 2 declared before the membrane, falling onto MAS (1, 5) through a
         /// BUT link, and a CEL after it tied to the last MAS
         HammerFirst,
-        /// the hammer declared after the membrane
+        /// the hammer declared after the membrane, falling onto its first MAS (row 0, column
+        /// 0), whose links then reach further than a row
         HammerLast,
     }
 
@@ -4363,7 +4364,10 @@ mod tests {
             z: 1e-3,
             s: 0.0,
         };
-        let struck = shift(MatId((cols + 5) as u32));
+        let struck = match around {
+            Surround::HammerLast => MatId(0),
+            _ => shift(MatId((cols + 5) as u32)),
+        };
         out.add_link(felt, struck, hammer);
         let cel = out.add_material(Material::Cel {
             m: 3.0,

@@ -161,9 +161,20 @@ enum FixTerm {
 /// and a model that is mostly something else keeps the gather step.
 const OUTSIDE_SHARE: usize = 2;
 
+/// The terms of material `s` (a storage slot below `n_mc`): `Kernel::eidx`.
+fn terms(k: &Kernel, s: usize) -> &[u32] {
+    &k.eidx[k.eoff[s] as usize..k.eoff[s + 1] as usize]
+}
+
+/// The other end of the link of a material's term `e`, if it is a link's (not an input's).
+fn other_end(k: &Kernel, e: u32) -> Option<usize> {
+    let end = if e & NEG != 0 { &k.lb } else { &k.la };
+    end.get((e & !NEG) as usize).map(|&o| o as usize)
+}
+
 /// Whether the MAS of `net`, in declaration order, may hold a membrane the grid step takes: one
-/// MAS tied to the next and to one at least [`COLS_MIN`] further, and the MAS that far further
-/// tied to the next (`Grid::new` decides; a cheap test, so that only such networks
+/// MAS tied to the next and to one at least [`COLS_MIN`] further, itself tied to the next
+/// (`Grid::new` decides; a cheap test, so that only such networks
 /// are built with their MAS in declaration order, see [`super::Mobiles`]).
 pub(super) fn may_hold(net: &Network) -> bool {
     let mut rank = vec![u32::MAX; net.materials.len()];
@@ -177,21 +188,19 @@ pub(super) fn may_hold(net: &Network) -> bool {
     if n < COLS_MIN * ROWS_MIN {
         return false;
     }
-    // for each MAS, whether a link ties it to the next, and the furthest after it one does
-    let (mut next, mut far) = (vec![false; n], vec![0; n]);
-    for link in &net.links {
-        let (Some(&a), Some(&b)) = (rank.get(link.a.index()), rank.get(link.b.index())) else {
-            continue;
-        };
-        if a != u32::MAX && b != u32::MAX && a != b {
-            let (lo, hi) = (a.min(b) as usize, a.max(b) as usize);
-            next[lo] |= hi == lo + 1;
-            far[lo] = far[lo].max(hi - lo);
-        }
+    // each link between two MAS, as (first, second) in declaration order
+    let pairs = net.links.iter().filter_map(|link| {
+        let (a, b) = (*rank.get(link.a.index())?, *rank.get(link.b.index())?);
+        (a != u32::MAX && b != u32::MAX).then(|| (a.min(b) as usize, a.max(b) as usize))
+    });
+    // whether a link ties each MAS to the next
+    let mut next = vec![false; n];
+    for (lo, hi) in pairs.clone() {
+        next[lo] |= hi == lo + 1;
     }
-    (0..n)
-        .find(|&s| next[s] && far[s] >= COLS_MIN)
-        .is_some_and(|s| s + far[s] < n && next[s + far[s]])
+    pairs
+        .clone()
+        .any(|(lo, hi)| hi - lo >= COLS_MIN && next[lo] && next[hi])
 }
 
 /// The `x(n+1)` of one row: the whole state, the row below's `x(n)` and `x(n-1)`, and the
@@ -211,30 +220,34 @@ impl Grid {
     /// the CPU has AVX-512.
     pub(super) fn new(k: &Kernel) -> Option<Grid> {
         let cpu = k.tails()?;
-        let edges = |s: usize| &k.eidx[k.eoff[s] as usize..k.eoff[s + 1] as usize];
+        // the MAS after MAS `s` that its terms tie it to
+        let after = |s: usize| {
+            let ends = terms(k, s).iter().filter_map(|&e| other_end(k, e));
+            ends.filter(move |&o| o > s && o < k.n_mas)
+        };
+        let tied_next = |s: usize| after(s).any(|o| o == s + 1);
+        // the grid's first MAS: the first tied to the next and to one a row further, itself tied
+        // to the next; each such row length in turn (a link across the membrane, or to a MAS
+        // after it, can tie its first MAS further than a row)
+        let base = (0..k.n_mas)
+            .find(|&s| tied_next(s) && after(s).any(|o| o - s >= COLS_MIN && tied_next(o)))?;
+        let mut widths: Vec<usize> = after(base)
+            .map(|o| o - base)
+            .filter(|&d| d >= COLS_MIN)
+            .collect();
+        widths.sort_unstable();
+        widths.dedup();
+        widths
+            .into_iter()
+            .find_map(|cols| Grid::at(k, cpu, base, cols))
+    }
+
+    /// The grid step of `k` for a membrane of `cols` columns from MAS `base` on, if there is one.
+    fn at(k: &Kernel, cpu: Avx512, base: usize, cols: usize) -> Option<Grid> {
+        let edges = |s: usize| terms(k, s);
         let link = |e: u32| (e & !NEG) as usize;
-        // the other end of a material's term, if it is a link's
-        let other = |e: u32| {
-            let l = link(e);
-            let end = if e & NEG != 0 { &k.lb } else { &k.la };
-            end.get(l).map(|&o| o as usize)
-        };
-        // whether MAS `s` is tied to the next, and the furthest MAS after it it is tied to
-        let reach = |s: usize| {
-            let after = edges(s).iter().filter_map(|&e| other(e));
-            let after = after.filter(|&o| o > s && o < k.n_mas);
-            (
-                after.clone().any(|o| o == s + 1),
-                after.max().map_or(0, |o| o - s),
-            )
-        };
-        // the grid: from the first MAS tied to the next and to one a row further, down the rows
-        // whose first MAS is tied to the next row's
-        let base = (0..k.n_mas).find(|&s| {
-            let (next, far) = reach(s);
-            next && far >= COLS_MIN
-        })?;
-        let cols = reach(base).1;
+        let other = |e: u32| other_end(k, e);
+        // down the rows whose first MAS is tied to the next row's
         let first_of = |r: usize| base + r * cols;
         let mut rows = 1;
         while first_of(rows + 1) <= k.n_mas
