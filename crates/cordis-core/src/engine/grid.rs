@@ -244,16 +244,14 @@ impl Grid {
 
     /// The grid step of `k` for a membrane of `cols` columns from MAS `base` on, if there is one.
     fn at(k: &Kernel, cpu: Avx512, base: usize, cols: usize) -> Option<Grid> {
-        let edges = |s: usize| terms(k, s);
         let link = |e: u32| (e & !NEG) as usize;
-        let other = |e: u32| other_end(k, e);
         // down the rows whose first MAS is tied to the next row's
         let first_of = |r: usize| base + r * cols;
         let mut rows = 1;
         while first_of(rows + 1) <= k.n_mas
-            && edges(first_of(rows - 1))
+            && terms(k, first_of(rows - 1))
                 .iter()
-                .any(|&e| other(e) == Some(first_of(rows)))
+                .any(|&e| other_end(k, e) == Some(first_of(rows)))
         {
             rows += 1;
         }
@@ -277,7 +275,7 @@ impl Grid {
         for run in &k.whole.runs {
             law[run.start..run.end].fill(run.law);
         }
-        let first = link(*edges(base).first()?);
+        let first = link(*terms(k, base).first()?);
         let (kk, zz) = (*k.lk.get(first)?, *k.lz.get(first)?);
         let same = |l: usize| {
             l < k.nl
@@ -309,7 +307,7 @@ impl Grid {
         };
         for s in mine.clone() {
             let (r, c) = ((s - base) / cols, (s - base) % cols);
-            let e = edges(s);
+            let e = terms(k, s);
             // each side's neighbour, if it has one, and the sign its term must have (the MAS is
             // end 2 of the link on its left and above, end 1 of the others)
             let neighbour = [
@@ -326,7 +324,7 @@ impl Grid {
             let mut grounds = Vec::new();
             let mut t = 0;
             for &term in e {
-                let (l, Some(o)) = (link(term), other(term)) else {
+                let (l, Some(o)) = (link(term), other_end(k, term)) else {
                     break; // an input
                 };
                 let end = if term & NEG != 0 { k.la[l] } else { k.lb[l] };
@@ -426,7 +424,7 @@ impl Grid {
         let mut wanted = vec![false; k.nl];
         // (an ENX has no terms: its position is its signal)
         for s in (0..mine.start).chain(mine.end..k.n_mc) {
-            for &e in &k.eidx[k.eoff[s] as usize..k.eoff[s + 1] as usize] {
+            for &e in terms(k, s) {
                 if let Some(w) = wanted.get_mut((e & !NEG) as usize) {
                     *w = true;
                 }
