@@ -20,13 +20,14 @@
 //! - `free R C`: that membrane without its rim (a free border); `struck R C`: with its rim and a
 //!   hammer (a MAS of inertia 4 declared after the membrane, falling from x = 2 at 0.01 per step
 //!   onto the mass at (R/3, C/3) through a BUT link, K and Z as the membrane's, S = 0): the unit
-//!   of work counts the hammer;
+//!   of work counts the hammer; `pair R C`: that struck membrane and a second one with its rim
+//!   declared after it, the two centres tied by a REF link (both membranes count);
 //! - `random N`: N masses, each the end 1 of 2 REF links to masses drawn by a seeded LCG (4 links
 //!   per mass on average), one ground tied to mass 0, strike on N/4, SOX on N/2.
 //!
 //! `threads [N [T [KIND...]]]` times a string of N masses, a membrane of about N masses (316x316
-//! for 100,000) and a random network of N masses (or only the KINDs named: `string`, `membrane`,
-//! `random`) on 1 and on T threads (default 2), printing both figures, their ratio, the load
+//! for 100,000), a `pair` of membranes of about N/2 masses each (224x224) and a random network of
+//! N masses (or only the KINDs named: `string`, `membrane`, `pair`, `random`) on 1 and on T threads (default 2), printing both figures, their ratio, the load
 //! average and whether the outputs are bit-identical.
 //!
 //! A kind without a size selects its default models. Work per timed run: `CORDIS_BENCH_WORK`
@@ -160,6 +161,9 @@ enum Rim {
     Free,
     /// The rim, and a hammer falling onto the mass at (R/3, C/3).
     Struck,
+    /// Struck, and a second membrane with a rim after it, its centre tied to the first's by a
+    /// link of the membranes' law (two sheets of the grid step).
+    Pair,
 }
 
 /// As `gen_models.py build_membrane` (one ground per missing neighbour, horizontal links row by row
@@ -167,8 +171,19 @@ enum Rim {
 /// `baselines.sh`. With a `rim`: laid out as the language's `membrane` generator declares it
 /// (docs/LANGUAGE.md) instead: the horizontal links row by row, the vertical links row by row, then
 /// one rim (`sol`) and a link from it to each edge mass per missing neighbour, row by row (no rim
-/// for `Rim::Free`; a hammer after it for `Rim::Struck`).
+/// for `Rim::Free`; a hammer after it for `Rim::Struck`; a second membrane after that for
+/// `Rim::Pair`).
 fn membrane(rows: usize, cols: usize, rim: Option<Rim>) -> Model {
+    if rim == Some(Rim::Pair) {
+        let mut pair = membrane(rows, cols, Some(Rim::Struck));
+        let second = pair.net.append(&membrane(rows, cols, Some(Rim::Fixed)).net);
+        let centre = MatId(second.0 + (rows / 2 * cols + cols / 2) as u32);
+        pair.net.add_link(Law::Ref.interaction(), pair.out, centre);
+        pair.net.outputs.truncate(1); // (the first's SOX only, which the generic kernel records)
+        pair.masses += rows * cols;
+        pair.name = format!("pair_{rows}x{cols}");
+        return pair;
+    }
     let mut net = Network::new();
     let mut idx = Vec::with_capacity(rows * cols);
     for r in 0..rows {
@@ -238,6 +253,7 @@ fn membrane(rows: usize, cols: usize, rim: Option<Rim>) -> Model {
         Some(Rim::Fixed) => "rimmed",
         Some(Rim::Free) => "free",
         Some(Rim::Struck) => "struck",
+        Some(Rim::Pair) => unreachable!("a pair is two struck and rimmed membranes"),
     };
     Model {
         name: format!("{kind}_{rows}x{cols}"),
@@ -1113,7 +1129,7 @@ fn work() -> u64 {
 fn usage() -> ! {
     eprintln!(
         "usage: cargo bench -p cordis-core --bench engine -- [string [N]] [but [N]] [lnl [N]] \
-         [membrane [R C | RxC]] [rimmed|free|struck R C | RxC] [random [N]]...\n(no model: every default model)\n   \
+         [membrane [R C | RxC]] [rimmed|free|struck|pair R C | RxC] [random [N]]...\n(no model: every default model)\n   \
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
          threads, default N = 100000 masses, T = 2)\n   \
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
@@ -1134,16 +1150,17 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "string" => Some(Law::Ref),
             "but" => Some(Law::But),
             "lnl" => Some(Law::Lnl),
-            "membrane" | "rimmed" | "free" | "struck" | "random" => None,
+            "membrane" | "rimmed" | "free" | "struck" | "pair" | "random" => None,
             _ => usage(),
         };
         let first = args.get(i).map(String::as_str);
         let explicit = match (kind, first) {
-            ("membrane" | "rimmed" | "free" | "struck", Some(a)) => {
+            ("membrane" | "rimmed" | "free" | "struck" | "pair", Some(a)) => {
                 let spec = |r, c| match kind {
                     "membrane" => Spec::Membrane(r, c),
                     "rimmed" => Spec::Rimmed(r, c, Rim::Fixed),
                     "free" => Spec::Rimmed(r, c, Rim::Free),
+                    "pair" => Spec::Rimmed(r, c, Rim::Pair),
                     _ => Spec::Rimmed(r, c, Rim::Struck),
                 };
                 if let Some((r, c)) = a
@@ -1194,8 +1211,13 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
 /// The models of the `threads` mode for about `n` masses: a string, a square membrane, a random
 /// network.
 fn thread_models(n: usize) -> Vec<Model> {
-    let side = ((n as f64).sqrt().round() as usize).max(3);
-    vec![string(n, Law::Ref), membrane(side, side, None), random(n)]
+    let side = |n: usize| ((n as f64).sqrt().round() as usize).max(3);
+    vec![
+        string(n, Law::Ref),
+        membrane(side(n), side(n), None),
+        membrane(side(n / 2), side(n / 2), Some(Rim::Pair)),
+        random(n),
+    ]
 }
 
 /// The 1-minute load average, to print next to timings on a shared machine.

@@ -1145,10 +1145,10 @@ impl Kernel {
     /// A network of RES, FRO and REF links without locality (one that takes the compact step,
     /// whose links are scattered, or whose links and MAS are mostly read through index lists)
     /// also gets the pull step (`engine/pull.rs`) when the CPU has AVX-512: [`Engine::process`]
-    /// then takes it, on one thread or on the pool's (`pull::PullJob`). A membrane of one REF
-    /// law and one inertia, its border fixed or free, alone or with at most half as much around
-    /// it, gets the grid step instead (`engine/grid.rs`, `grid::GridJob`), which keeps every
-    /// force in registers; its network is stored with its MAS in declaration order
+    /// then takes it, on one thread or on the pool's (`pull::PullJob`). Membranes, each of one
+    /// REF law and one inertia, their borders fixed or free, alone or with at most half as much
+    /// around them, get the grid step instead (`engine/grid.rs`, `grid::GridJob`), which keeps every
+    /// force in registers; their network is stored with its MAS in declaration order
     /// ([`Mobiles::Declared`]).
     #[track_caller]
     fn new(net: &Network) -> Kernel {
@@ -4323,6 +4323,10 @@ mod tests {
         /// the hammer declared after the membrane, falling onto its first MAS (row 0, column
         /// 0), whose links then reach further than a row
         HammerLast,
+        /// as `HammerFirst`, and a second membrane after the CEL ([`membrane`], a row more and
+        /// three columns wider, of inertia 2), one of its MAS tied to the first membrane's by
+        /// a REF link
+        Pair,
     }
 
     /// [`membrane`] (layout 0) or [`rimmed`] (1, or 2: mixed) of `rows x cols` MAS of inertia 1,
@@ -4338,7 +4342,8 @@ mod tests {
             x0: 0.02,
             v0: -5e-4,
         };
-        let first = (around == Surround::HammerFirst).then(|| out.add_material(hammer.clone()));
+        let first = matches!(around, Surround::HammerFirst | Surround::Pair)
+            .then(|| out.add_material(hammer.clone()));
         let shift = |id: MatId| MatId(id.0 + u32::from(first.is_some()));
         for m in &net.materials {
             out.add_material(m.clone());
@@ -4380,6 +4385,11 @@ mod tests {
         let last = shift(MatId((rows * cols - 1) as u32));
         out.add_link(Interaction::Ref { k: 0.07, z: 1e-3 }, last, cel);
         out.add_position_output(hammer);
+        if around == Surround::Pair {
+            let second = out.append(&membrane(rows + 1, cols + 3, |_| 2.0));
+            let tie = Interaction::Ref { k: 0.1, z: 1e-4 };
+            out.add_link(tie, shift(MatId(3)), MatId(second.0 + cols as u32 + 9));
+        }
         out
     }
 
@@ -4433,6 +4443,19 @@ mod tests {
             assert!(taken(&surrounded(6, 20, layout, Surround::HammerFirst)));
             assert!(taken(&surrounded(6, 20, layout, Surround::HammerLast)));
         }
+        // several membranes, each a sheet of its own
+        let sheets = |net: &Network| Engine::new(net).k.grid.as_ref().map_or(0, |g| g.sheets());
+        assert_eq!(sheets(&surrounded(6, 20, 1, Surround::Pair)), 2);
+        let mut three = surrounded(3, 17, 0, Surround::Pair);
+        three.append(&rimmed(2, 30, true));
+        assert_eq!(sheets(&three), 3);
+        // (a membrane too narrow for a sheet is what is around the others)
+        // (72 modules: 20 MAS and 52 links, at most 120 around the first's 240 MAS)
+        let mut narrow = membrane(12, 20, |_| 1.0);
+        narrow.append(&membrane(2, 10, |_| 1.0));
+        assert_eq!(sheets(&narrow), 1);
+        narrow.append(&membrane(2, 10, |_| 1.0));
+        assert_eq!(sheets(&narrow), 0);
         // too much around it (a string of 121 MAS for 120 in the membrane), a grid MAS of
         // another inertia, a ground link of another stiffness, a link to a neighbour missing
         let mut strung = membrane(6, 20, |_| 1.0);
@@ -4484,6 +4507,8 @@ mod tests {
             (5, 18, 1.0, 0, Surround::HammerFirst),
             (9, 24, 1.0, 1, Surround::HammerLast),
             (4, 41, 1.0, 2, Surround::HammerFirst),
+            (5, 18, 1.0, 2, Surround::Pair),
+            (4, 41, 1.0, 0, Surround::Pair),
         ];
         for (rows, cols, m, layout, around) in layouts {
             let mut net = match (layout, around) {

@@ -291,6 +291,46 @@ impl Network {
         self.outputs.len() - 1
     }
 
+    /// Appends a copy of `other`: its materials, links, force inputs and outputs, declared after
+    /// this network's, in their order, each tied to `other`'s modules' copies. Returns the id
+    /// here of `other`'s first material: `other`'s `MatId(i)` is `MatId(first.0 + i)` here, and
+    /// its `LinkId(j)` is `LinkId(l + j)`, `l` this network's link count before the call.
+    ///
+    /// # Panics
+    /// If the networks together have more than 2^32 materials or links.
+    #[track_caller]
+    pub fn append(&mut self, other: &Network) -> MatId {
+        let (m0, l0) = (self.materials.len(), self.links.len());
+        let shift = |n: usize| u32::try_from(n).expect("more than 2^32 modules");
+        let mat = |m: MatId| MatId(shift(m0 + m.index()));
+        let link = |l: LinkId| LinkId(shift(l0 + l.index()));
+        self.materials.extend(other.materials.iter().cloned());
+        shift(self.materials.len());
+        let links = other.links.iter().map(|l| Link {
+            law: l.law.clone(),
+            a: mat(l.a),
+            b: mat(l.b),
+        });
+        self.links.extend(links);
+        shift(self.links.len());
+        let forces = other.forces.iter().map(|f| ForceInput {
+            target: mat(f.target),
+            signal: f.signal.clone(),
+        });
+        self.forces.extend(forces);
+        let probe = |p: &Probe| match *p {
+            Probe::Position(m) => Probe::Position(mat(m)),
+            Probe::Force(l) => Probe::Force(link(l)),
+        };
+        let outputs = other.outputs.iter().map(|o| match o {
+            Output::Position(m) => Output::Position(mat(*m)),
+            Output::Force(l) => Output::Force(link(*l)),
+            Output::Sum(terms) => Output::Sum(terms.iter().map(|(g, p)| (*g, probe(p))).collect()),
+        });
+        self.outputs.extend(outputs);
+        mat(MatId(0))
+    }
+
     /// Number of modules of every kind (materials, links, force inputs, outputs).
     pub fn module_count(&self) -> usize {
         self.materials.len() + self.links.len() + self.forces.len() + self.outputs.len()

@@ -4,7 +4,7 @@
 mod common;
 
 use common::*;
-use cordis_core::{Engine, Interaction, Material, Network, Signal};
+use cordis_core::{Engine, Interaction, MatId, Material, Network, Signal};
 
 #[test]
 fn engine_equals_reference_bit_for_bit_on_every_module_type() {
@@ -368,8 +368,9 @@ fn spring_networks_equal_the_reference() {
 /// registers, row by row) equal the reference at every step, in every output (positions, link
 /// forces, a sum), for widths of every remainder of 8, multiplied and divided inertias, SOL at
 /// their own positions or one rim, links declared as the C kit, the language's `membrane` or a
-/// mix of orders and ends, with and without ENF inputs, alone, with free edges or in an
-/// instrument (a hammer, a CEL, an ENX, a link across), in blocks of any size.
+/// mix of orders and ends, with and without ENF inputs, alone, with free edges, in an
+/// instrument (a hammer, a CEL, an ENX, a link across) or with a second membrane tied to it, in
+/// blocks of any size.
 #[test]
 fn grid_membranes_equal_the_reference() {
     let sizes = [
@@ -391,6 +392,8 @@ fn grid_membranes_equal_the_reference() {
             (1.5, true, false, Around::Instrument),
             (0.5, false, true, Around::FreeEdges),
             (1.25, true, false, Around::FreeEdges),
+            (1.0, false, true, Around::Pair),
+            (0.5, true, false, Around::Pair),
         ] {
             let layout = [GridLayout::Kit, GridLayout::Rimmed, GridLayout::Mixed][i % 3];
             let seed = i as u64 + 1;
@@ -411,4 +414,44 @@ fn grid_membranes_equal_the_reference() {
             assert!((0..ch).all(moved), "{rows}x{cols}: an output never moved");
         }
     }
+}
+
+/// `Network::append` declares a copy of the other network after this one's modules: the two
+/// parts, which share no link, step as they do alone, every output of each in its place.
+#[test]
+fn an_appended_network_steps_as_it_does_alone() {
+    let a = every_module_network();
+    let b = grid_membrane(
+        3,
+        4,
+        20,
+        1.5,
+        GridLayout::Mixed,
+        false,
+        true,
+        Around::Instrument,
+    );
+    let mut both = a.clone();
+    let first = both.append(&b);
+    assert_eq!(first, MatId(a.materials.len() as u32));
+    assert_eq!(both.module_count(), a.module_count() + b.module_count());
+    let steps = 300;
+    let (ra, rb) = (reference(&a, steps), reference(&b, steps));
+    let expected: Vec<f64> = (0..steps)
+        .flat_map(|s| {
+            let (ca, cb) = (a.outputs.len(), b.outputs.len());
+            ra[s * ca..(s + 1) * ca]
+                .iter()
+                .chain(&rb[s * cb..(s + 1) * cb])
+                .copied()
+        })
+        .collect();
+    assert_eq!(
+        first_bit_difference(&reference(&both, steps), &expected),
+        None
+    );
+    assert_eq!(
+        first_bit_difference(&render(&both, steps, 64), &expected),
+        None
+    );
 }

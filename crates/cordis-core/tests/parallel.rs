@@ -454,6 +454,8 @@ fn grid_membranes_match_on_any_thread_count_and_block_size() {
         (6, 30, 33, 1.5, 400, GridLayout::Rimmed, Around::Instrument),
         (7, 17, 40, 0.5, 300, GridLayout::Mixed, Around::FreeEdges),
         (8, 5, 24, 1.0, 300, GridLayout::Rimmed, Around::FreeEdges),
+        (9, 3, 16, 1.0, 300, GridLayout::Kit, Around::Pair),
+        (10, 20, 30, 0.5, 300, GridLayout::Mixed, Around::Pair),
     ] {
         let net = grid_membrane(seed, rows, cols, m, layout, seed == 2, true, around);
         let expected = single_thread_checked(&net, steps);

@@ -1,4 +1,4 @@
-//! The grid step: a membrane, row by row, with every force in registers.
+//! The grid step: membranes, row by row, with every force in registers.
 //!
 //! A membrane is a grid of `rows x cols` MAS in consecutive storage slots (row `r`, column `c` at
 //! slot `base + r cols + c`), each tied to its four neighbours by REF links of one `K` and `Z`,
@@ -9,7 +9,9 @@
 //! their rows ([`super::Mobiles`]). The gather step computes every link
 //! force into a buffer and the MAS loop reads four of them back per MAS: on a 100x100 membrane the
 //! buffer's traffic, not the arithmetic, bounds it (docs/BENCHMARKS.md). The grid step keeps no
-//! force buffer. Going down the rows, eight MAS at a time:
+//! force buffer. A network may hold several membranes, each a [`Sheet`] with its own size, law
+//! and inertia, found one after the other in storage ([`Grid::new`]). Going down each sheet's
+//! rows, eight MAS at a time:
 //!
 //! - each MAS's velocity `v = x(n) - x(n-1)` is computed once, when its row is the one below, and
 //!   kept in a row buffer;
@@ -43,13 +45,14 @@
 //! which the gather step replays.) Its side comes after the MAS's terms in its [`Order`]: the top row
 //! of a free membrane sums left-right-down, the bottom row left-right-up.
 //!
-//! **Around the membrane.** The grid's terms of a MAS come first; a MAS with more (a link to a
-//! hammer, a string, another MAS of the grid; ENF inputs) is a *fix*, recomputed after its rows
-//! term by term, each link by its own law (as `update_mas` does its exceptions). The moving
-//! materials outside the grid (before it or after it in storage: a hammer, a CEL, an ENX) are
-//! stepped each step as the gather step does, their links' forces computed into `sf` first
-//! ([`Grid::step_outside`]); a model where they, their links and the fixes' terms are more than
-//! half the grid's MAS keeps the gather step ([`OUTSIDE_SHARE`]). The loads and shuffles are
+//! **Around the membranes.** The sheet's terms of a MAS come first; a MAS with more (a link to a
+//! hammer, a string, another MAS of the sheet or of another sheet; ENF inputs) is a *fix*,
+//! recomputed after its rows term by term, each link by its own law (as `update_mas` does its
+//! exceptions), from `x(n)` and `x(n-1)` alone. The moving materials outside the sheets (before,
+//! between or after them in storage: a hammer, a CEL, an ENX, a membrane too narrow for a sheet)
+//! are stepped each step as the gather step does, their links' forces computed into `sf` first
+//! ([`Grid::outside_links`], [`Grid::outside_mats`]); a model where they, their links and the
+//! fixes' terms are more than half the sheets' MAS keeps the gather step ([`OUTSIDE_SHARE`]). The loads and shuffles are
 //! AVX-512 (an [`Avx512`] token is the CPU's proof); `tests/engine.rs` compares every step with
 //! the reference, and `engine.rs`'s tests with the gather step.
 
@@ -102,9 +105,27 @@ impl Order {
     }
 }
 
-/// A membrane the grid step can take (see the module's documentation).
+/// The membranes of a network the grid step takes (see the module's documentation), in storage
+/// order, and what is around them.
 #[derive(Clone, Debug)]
 pub(super) struct Grid {
+    sheets: Vec<Sheet>,
+    /// The first row of each sheet in the grid's row count (its rows one after the other), and
+    /// the total: sheet `i` has rows `row0[i]..row0[i + 1]`
+    row0: Vec<usize>,
+    /// The storage slots of the moving materials outside every sheet (before, between, after),
+    /// ascending, none empty
+    outside: Vec<Range<usize>>,
+    /// The links of the moving materials outside the sheets, stepped as the gather step does,
+    /// after the links of `outside_runs` and the ENF inputs are computed into `sf`.
+    outside_runs: Vec<Run>,
+    /// The links the outputs read (see [`Kernel::recorded_links`]).
+    recorded: Vec<Run>,
+}
+
+/// One membrane of a [`Grid`].
+#[derive(Clone, Debug)]
+struct Sheet {
     cpu: Avx512,
     /// The storage slot of the MAS of row 0, column 0: row `r`, column `c` is at `base + r cols +
     /// c`
@@ -132,15 +153,9 @@ pub(super) struct Grid {
     terms: Vec<FixTerm>,
     /// The single-link runs of the fixes' link terms.
     fix_runs: Vec<Run>,
-    /// The links of the moving materials outside the grid (slots `0..base` and `base + rows cols
-    /// ..n_mce`), stepped as the gather step does, after the links of `outside_runs` and the ENF
-    /// inputs are computed into `sf`.
-    outside_runs: Vec<Run>,
-    /// The links the outputs read (see [`Kernel::recorded_links`]).
-    recorded: Vec<Run>,
 }
 
-/// A MAS of the grid recomputed term by term: its storage slot and its terms, `Grid::terms[terms]`.
+/// A MAS of a sheet recomputed term by term: its storage slot and its terms, `Sheet::terms[terms]`.
 #[derive(Clone, Debug)]
 struct Fix {
     slot: u32,
@@ -150,16 +165,21 @@ struct Fix {
 /// A term of a [`Fix`], in the MAS's order.
 #[derive(Clone, Copy, Debug)]
 enum FixTerm {
-    /// The force of the link of `Grid::fix_runs[run]`, negated where the MAS is its end 1
+    /// The force of the link of `Sheet::fix_runs[run]`, negated where the MAS is its end 1
     Link { run: u32, neg: bool },
     /// The sample of ENF input `i`
     Input(u32),
 }
 
-/// The moving materials outside the grid, their links and the fixes' terms may be at most `1 /
-/// OUTSIDE_SHARE` of the grid's MAS: they are stepped one by one (or as the gather step does),
+/// The moving materials outside the sheets, their links and the fixes' terms may be at most `1 /
+/// OUTSIDE_SHARE` of the sheets' MAS: they are stepped one by one (or as the gather step does),
 /// and a model that is mostly something else keeps the gather step.
 const OUTSIDE_SHARE: usize = 2;
+
+/// How many places that look like a sheet's first MAS but are none (a per-MAS-inertia membrane,
+/// a coupling that ties a row further than the next) are tried before the search for sheets
+/// stops: each costs up to a pass over a sheet.
+const REFUSED_MAX: usize = 16;
 
 /// The terms of material `s` (a storage slot below `n_mc`): `Kernel::eidx`.
 fn terms(k: &Kernel, s: usize) -> &[u32] {
@@ -216,8 +236,8 @@ struct RowArgs<'a> {
 }
 
 impl Grid {
-    /// The grid step of `k`, if its network is a membrane as the module's documentation says and
-    /// the CPU has AVX-512.
+    /// The grid step of `k`, if its network holds membranes as the module's documentation says
+    /// and the CPU has AVX-512.
     pub(super) fn new(k: &Kernel) -> Option<Grid> {
         let cpu = k.tails()?;
         // the MAS after MAS `s` that its terms tie it to
@@ -226,24 +246,171 @@ impl Grid {
             ends.filter(move |&o| o > s && o < k.n_mas)
         };
         let tied_next = |s: usize| after(s).any(|o| o == s + 1);
-        // the grid's first MAS: the first tied to the next and to one a row further, itself tied
-        // to the next; each such row length in turn (a link across the membrane, or to a MAS
-        // after it, can tie its first MAS further than a row)
-        let base = (0..k.n_mas)
-            .find(|&s| tied_next(s) && after(s).any(|o| o - s >= COLS_MIN && tied_next(o)))?;
-        let mut widths: Vec<usize> = after(base)
-            .map(|o| o - base)
-            .filter(|&d| d >= COLS_MIN)
-            .collect();
-        widths.sort_unstable();
-        widths.dedup();
-        widths
-            .into_iter()
-            .find_map(|cols| Grid::at(k, cpu, base, cols))
+        // each sheet's first MAS: the first after the sheet before tied to the next and to one a
+        // row further, itself tied to the next; each such row length in turn (a link across the
+        // membrane, or to a MAS after it, can tie its first MAS further than a row)
+        let candidate = |s: &usize| {
+            let s = *s;
+            tied_next(s) && after(s).any(|o| o - s >= COLS_MIN && tied_next(o))
+        };
+        let (mut sheets, mut from, mut refused) = (Vec::<Sheet>::new(), 0, 0);
+        while let Some(base) = (from..k.n_mas).find(candidate) {
+            let mut widths: Vec<usize> = after(base)
+                .map(|o| o - base)
+                .filter(|&d| d >= COLS_MIN)
+                .collect();
+            widths.sort_unstable();
+            widths.dedup();
+            match (widths.into_iter()).find_map(|cols| Sheet::at(k, cpu, base, cols)) {
+                Some(sheet) => {
+                    from = sheet.slots(&(0..sheet.rows)).end;
+                    sheets.push(sheet);
+                }
+                None if refused < REFUSED_MAX => (from, refused) = (base + 1, refused + 1),
+                None => break,
+            }
+        }
+        if sheets.is_empty() {
+            return None;
+        }
+        let mut row0 = vec![0];
+        for sheet in &sheets {
+            row0.push(row0[row0.len() - 1] + sheet.rows);
+        }
+        // the moving materials outside the sheets, and their links
+        let mut outside = Vec::new();
+        let mut start = 0;
+        for sheet in &sheets {
+            let mine = sheet.slots(&(0..sheet.rows));
+            outside.push(start..mine.start);
+            start = mine.end;
+        }
+        outside.push(start..k.n_mce);
+        outside.retain(|o| !o.is_empty());
+        let mut wanted = vec![false; k.nl];
+        // (an ENX has no terms: its position is its signal)
+        for s in outside
+            .iter()
+            .flat_map(|o| o.start.min(k.n_mc)..o.end.min(k.n_mc))
+        {
+            for &e in terms(k, s) {
+                if let Some(w) = wanted.get_mut((e & !NEG) as usize) {
+                    *w = true;
+                }
+            }
+        }
+        let g = Grid {
+            outside_runs: k.runs_of(&wanted)?,
+            recorded: k.recorded_links()?,
+            row0,
+            outside,
+            sheets,
+        };
+        let n: usize = g.sheets.iter().map(|s| s.rows * s.cols).sum();
+        let around = g.outside.iter().map(|o| o.len()).sum::<usize>()
+            + g.outside_runs
+                .iter()
+                .map(|r| r.end - r.start)
+                .sum::<usize>()
+            + g.sheets.iter().map(|s| s.terms.len()).sum::<usize>();
+        (around <= n / OUTSIDE_SHARE).then_some(g)
     }
 
-    /// The grid step of `k` for a membrane of `cols` columns from MAS `base` on, if there is one.
-    fn at(k: &Kernel, cpu: Avx512, base: usize, cols: usize) -> Option<Grid> {
+    /// How many membranes the grid steps.
+    #[cfg(test)]
+    pub(super) fn sheets(&self) -> usize {
+        self.sheets.len()
+    }
+
+    /// The scratch one thread needs: five row buffers of the widest sheet (velocities of two
+    /// rows, the links up, the grounds' `x(n)` and `x(n-1)` of the top or bottom row).
+    pub(super) fn scratch_len(&self) -> usize {
+        self.sheets
+            .iter()
+            .map(|s| 5 * s.stride())
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// The rows of each of `threads` threads, in the grid's row count (the sheets' rows one
+    /// after the other): consecutive, about as many MAS each.
+    pub(super) fn partition(&self, threads: usize) -> Vec<Range<usize>> {
+        let rows = self.row0[self.sheets.len()];
+        let cols = |r: usize| self.sheets[self.row0.partition_point(|&r0| r0 <= r) - 1].cols;
+        super::split(rows, threads.max(1), |r| cols(r) as u64)
+    }
+
+    /// Each sheet that has some of `rows` (in the grid's row count), with those rows in its own.
+    fn pieces(&self, rows: Range<usize>) -> impl Iterator<Item = (&Sheet, Range<usize>)> + '_ {
+        let spans = self.row0.windows(2);
+        self.sheets.iter().zip(spans).filter_map(move |(sheet, w)| {
+            let (lo, hi) = (rows.start.max(w[0]), rows.end.min(w[1]));
+            (lo < hi).then(|| (sheet, lo - w[0]..hi - w[0]))
+        })
+    }
+
+    /// Steps `frames` times from `st` on the calling thread, writing the outputs into `out` (see
+    /// [`super::Engine::process`]).
+    pub(super) fn block(&self, k: &Kernel, st: &mut State, frames: usize, out: &mut [f64]) {
+        let ch = k.channels.len();
+        for frame in 0..frames {
+            let roles = Roles::at(st.c);
+            let (cur, prev, next) = roles.split(&mut st.pos);
+            let frame_out = &mut out[frame * ch..(frame + 1) * ch];
+            k.record_with(&self.recorded, cur, prev, &mut st.sf, frame_out);
+            self.outside_links(k, st.n, (cur, prev), &mut st.sf);
+            for mats in &self.outside {
+                let next = &mut next[mats.clone()];
+                Grid::outside_mats(k, st.n, mats.clone(), (cur, prev), next, &st.sf);
+            }
+            for sheet in &self.sheets {
+                let all = 0..sheet.rows;
+                let next = &mut next[sheet.slots(&all)];
+                sheet.step(k, st.n, all, cur, prev, next, &mut st.grid);
+            }
+            st.n += 1;
+            st.c = roles.next;
+        }
+    }
+
+    /// Step `n`'s ENF inputs and forces of the links of `outside_runs` into `sf`, for the
+    /// materials outside the sheets (nothing when there are none).
+    pub(super) fn outside_links(
+        &self,
+        k: &Kernel,
+        n: u64,
+        (cur, prev): (&[f64], &[f64]),
+        sf: &mut [f64],
+    ) {
+        if self.outside.is_empty() {
+            return;
+        }
+        k.inputs(0..k.enf.len(), n, &mut sf[k.nl..]);
+        let state = Positions::new(k, cur, prev);
+        for run in &self.outside_runs {
+            k.run_links(run, &state, &mut sf[run.start..run.end]);
+        }
+    }
+
+    /// Step `n` of the materials `mats` (one of [`Grid::outside`]): `x(n+1)` into `next`
+    /// (exactly their slots), from `sf` as [`Grid::outside_links`] leaves it, as the gather step
+    /// computes it.
+    fn outside_mats(
+        k: &Kernel,
+        n: u64,
+        mats: Range<usize>,
+        (cur, prev): (&[f64], &[f64]),
+        next: &mut [f64],
+        sf: &[f64],
+    ) {
+        let seg = k.first_segment(mats.start);
+        k.materials_phase(mats, seg, n, cur, prev, next, Forces(sf));
+    }
+}
+
+impl Sheet {
+    /// The membrane of `cols` columns from MAS `base` on, if `k` has one there.
+    fn at(k: &Kernel, cpu: Avx512, base: usize, cols: usize) -> Option<Sheet> {
         let link = |e: u32| (e & !NEG) as usize;
         // down the rows whose first MAS is tied to the next row's
         let first_of = |r: usize| base + r * cols;
@@ -283,7 +450,7 @@ impl Grid {
                 && k.lk[l].to_bits() == kk.to_bits()
                 && k.lz[l].to_bits() == zz.to_bits()
         };
-        let mut g = Grid {
+        let mut g = Sheet {
             cpu,
             base,
             rows,
@@ -302,8 +469,6 @@ impl Grid {
             fixes: Vec::new(),
             terms: Vec::new(),
             fix_runs: Vec::new(),
-            outside_runs: Vec::new(),
-            recorded: k.recorded_links()?,
         };
         for s in mine.clone() {
             let (r, c) = ((s - base) / cols, (s - base) % cols);
@@ -387,13 +552,7 @@ impl Grid {
                 g.fix(k, s, e)?;
             }
         }
-        g.find_outside(k, &mine)?;
-        let outside = k.n_mce - n
-            + g.outside_runs
-                .iter()
-                .map(|r| r.end - r.start)
-                .sum::<usize>();
-        (outside + g.terms.len() <= n / OUTSIDE_SHARE).then_some(g)
+        Some(g)
     }
 
     /// Makes MAS `s`, whose terms are `edges`, a fix.
@@ -419,102 +578,19 @@ impl Grid {
         Some(())
     }
 
-    /// The runs of the links of the moving materials outside `mine` (the grid's slots).
-    fn find_outside(&mut self, k: &Kernel, mine: &Range<usize>) -> Option<()> {
-        let mut wanted = vec![false; k.nl];
-        // (an ENX has no terms: its position is its signal)
-        for s in (0..mine.start).chain(mine.end..k.n_mc) {
-            for &e in terms(k, s) {
-                if let Some(w) = wanted.get_mut((e & !NEG) as usize) {
-                    *w = true;
-                }
-            }
-        }
-        self.outside_runs = k.runs_of(&wanted)?;
-        Some(())
-    }
-
-    /// The scratch one thread needs: five row buffers (velocities of two rows, the links up,
-    /// the grounds' `x(n)` and `x(n-1)` of the top or bottom row).
-    pub(super) fn scratch_len(&self) -> usize {
-        5 * self.stride()
-    }
-
     fn stride(&self) -> usize {
         self.cols + 2 * LANES
     }
 
-    /// The rows of each of `threads` threads (consecutive, about equal).
-    pub(super) fn partition(&self, threads: usize) -> Vec<Range<usize>> {
-        super::split(self.rows, threads.max(1), |_| 1)
-    }
-
     /// The storage slots of the MAS of `rows`.
-    pub(super) fn slots(&self, rows: &Range<usize>) -> Range<usize> {
+    fn slots(&self, rows: &Range<usize>) -> Range<usize> {
         self.base + rows.start * self.cols..self.base + rows.end * self.cols
     }
 
-    /// The storage slots of the moving materials outside the grid: before it and after it.
-    pub(super) fn outside(&self, k: &Kernel) -> [Range<usize>; 2] {
-        let end = self.base + self.rows * self.cols;
-        [0..self.base, end..k.n_mce]
-    }
-
-    /// Steps `frames` times from `st` on the calling thread, writing the outputs into `out` (see
-    /// [`super::Engine::process`]).
-    pub(super) fn block(&self, k: &Kernel, st: &mut State, frames: usize, out: &mut [f64]) {
-        let ch = k.channels.len();
-        let all = 0..self.rows;
-        let mine = self.slots(&all);
-        let [_, after] = self.outside(k);
-        for frame in 0..frames {
-            let roles = Roles::at(st.c);
-            let (cur, prev, next) = roles.split(&mut st.pos);
-            let frame_out = &mut out[frame * ch..(frame + 1) * ch];
-            k.record_with(&self.recorded, cur, prev, &mut st.sf, frame_out);
-            let (before, rest) = next.split_at_mut(mine.start);
-            let (next, rest) = rest.split_at_mut(mine.len());
-            let after = &mut rest[..after.len()];
-            self.step_outside(k, st.n, (cur, prev), [before, after], &mut st.sf);
-            self.step(k, st.n, all.clone(), cur, prev, next, &mut st.grid);
-            st.n += 1;
-            st.c = roles.next;
-        }
-    }
-
-    /// Step `n` of the moving materials outside the grid: the ENF inputs and the links of
-    /// `outside_runs` into `sf`, then `x(n+1)` of the materials before and after the grid into
-    /// `next` (exactly their slots, [`Grid::outside`]), as the gather step computes them.
-    pub(super) fn step_outside(
-        &self,
-        k: &Kernel,
-        n: u64,
-        (cur, prev): (&[f64], &[f64]),
-        next: [&mut [f64]; 2],
-        sf: &mut [f64],
-    ) {
-        let slots = self.outside(k);
-        if slots.iter().all(|s| s.is_empty()) {
-            return;
-        }
-        k.inputs(0..k.enf.len(), n, &mut sf[k.nl..]);
-        let state = Positions::new(k, cur, prev);
-        for run in &self.outside_runs {
-            k.run_links(run, &state, &mut sf[run.start..run.end]);
-        }
-        let sf = Forces(sf);
-        for (mats, next) in slots.into_iter().zip(next) {
-            if !mats.is_empty() {
-                let seg = k.first_segment(mats.start);
-                k.materials_phase(mats, seg, n, cur, prev, next, sf);
-            }
-        }
-    }
-
     /// Step `n` of `rows`: `x(n+1)` of their MAS into `next` (exactly their slots), from `x(n)`,
-    /// `x(n-1)` of every material, with `scratch` ([`Grid::scratch_len`] values).
+    /// `x(n-1)` of every material, with `scratch` (at least five row buffers, [`Grid::scratch_len`]).
     #[allow(clippy::too_many_arguments)] // the step's buffers
-    pub(super) fn step(
+    fn step(
         &self,
         k: &Kernel,
         n: u64,
@@ -526,7 +602,7 @@ impl Grid {
     ) {
         let cols = self.cols;
         assert!(cur.len() == k.nm && prev.len() == k.nm && rows.end <= self.rows);
-        assert!(next.len() == rows.len() * cols && scratch.len() >= self.scratch_len());
+        assert!(next.len() == rows.len() * cols && scratch.len() >= 5 * self.stride());
         if rows.is_empty() {
             return;
         }
@@ -783,18 +859,20 @@ impl Grid {
     }
 }
 
-/// The grid step of a block on the pool's threads, thread `t` stepping the rows `shares[t]`:
+/// The grid step of a block on the pool's threads, thread `t` stepping the rows `shares[t]` (in
+/// the grid's row count: the sheets' rows one after the other, [`Grid::pieces`]):
 ///
 /// | in a step, thread `t` reads | and writes |
 /// | --- | --- |
 /// | `pos[cur]`, `pos[prev]` | the slots of its rows in `pos[next]`, its part of `scratch` |
 ///
-/// Thread 0 also records the outputs and steps the materials outside the grid: it reads
+/// Thread 0 also records the outputs and steps the materials outside the sheets: it reads
 /// `pos[cur]` and `pos[prev]`, and writes `sf` (the recorded links' forces, the ENF inputs, the
 /// outside links' forces), the outside slots of `pos[next]` (no share's rows) and its frame of
 /// the output, which no other thread touches (the fixes compute their own link forces, and
-/// read no `sf`). Nothing a step reads is written in it; the shares' rows are disjoint, and so are their parts of
-/// `scratch` (`scratch_len` each); the one barrier after each step orders its writes of
+/// read no `sf`). Nothing a step reads is written in it; the shares' rows are disjoint (and the
+/// sheets' slots are, and none is outside), and so are their parts of `scratch` (`scratch_len`
+/// each); the one barrier after each step orders its writes of
 /// `pos[next]` before the next step's reads (where it is `cur`). Which thread steps a row changes
 /// no bit: every value is computed from the same operands whoever computes it (a share's first
 /// row recomputes the links up from the row above).
@@ -825,11 +903,9 @@ impl GridJob<'_> {
         mut out: Option<&mut [f64]>,
         barrier: &SpinBarrier,
     ) -> Result<(), Poisoned> {
-        let k = self.k;
+        let (k, grid) = (self.k, self.grid);
         let rows = self.shares[t].clone();
-        let slots = self.grid.slots(&rows);
-        let outside = self.grid.outside(k);
-        let len = self.grid.scratch_len();
+        let len = grid.scratch_len();
         let ch = k.channels.len();
         let mut c = self.c0;
         for s in 0..self.frames {
@@ -839,18 +915,23 @@ impl GridJob<'_> {
             // scratch (or, on thread 0, to `sf` and the outside slots of `pos[next]`), every
             // slice dropped before the barrier that ends the step.
             unsafe {
-                let (cur, prev) = (self.pos[r.cur].read(), self.pos[r.prev].read());
+                let state = (self.pos[r.cur].read(), self.pos[r.prev].read());
                 let n = self.n0 + s as u64;
                 if let Some(out) = out.as_deref_mut() {
                     let sf = self.sf.write(0..k.sf_len);
                     let frame = &mut out[s * ch..(s + 1) * ch];
-                    k.record_with(&self.grid.recorded, cur, prev, sf, frame);
-                    let outside = outside.clone().map(|o| self.pos[r.next].write(o));
-                    self.grid.step_outside(k, n, (cur, prev), outside, sf);
+                    k.record_with(&grid.recorded, state.0, state.1, sf, frame);
+                    grid.outside_links(k, n, state, sf);
+                    for mats in &grid.outside {
+                        let next = self.pos[r.next].write(mats.clone());
+                        Grid::outside_mats(k, n, mats.clone(), state, next, sf);
+                    }
                 }
-                let next = self.pos[r.next].write(slots.clone());
                 let scratch = self.scratch.write(t * len..(t + 1) * len);
-                self.grid.step(k, n, rows.clone(), cur, prev, next, scratch);
+                for (sheet, rows) in grid.pieces(rows.clone()) {
+                    let next = self.pos[r.next].write(sheet.slots(&rows));
+                    sheet.step(k, n, rows, state.0, state.1, next, scratch);
+                }
             }
             barrier.wait()?;
             c = r.next;

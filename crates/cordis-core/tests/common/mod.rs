@@ -437,6 +437,10 @@ pub enum Around {
     /// MAS (1, 5) through a BUT link), a CEL and an ENX declared after it and tied to two MAS,
     /// and a link between two MAS of the membrane that are not neighbours.
     Instrument,
+    /// A second membrane declared after it (wider by 5 and one row more, of another inertia,
+    /// layout and rim, with its own inputs and outputs), a MAS declared between the two falling
+    /// onto the second through a BUT link, and a REF link tying one MAS of each.
+    Pair,
 }
 
 /// A membrane the grid step takes (`engine/grid.rs`): `rows x cols` MAS of inertia `m`, row by
@@ -623,5 +627,43 @@ pub fn grid_membrane(
         (2.0, Probe::Position(at(1, 1))),
         (-0.5, Probe::Force(border)),
     ]);
+    if around == Around::Pair {
+        let layout = match layout {
+            GridLayout::Kit => GridLayout::Rimmed,
+            GridLayout::Rimmed => GridLayout::Mixed,
+            GridLayout::Mixed => GridLayout::Kit,
+        };
+        let (r2, c2) = (rows + 1, cols + 5);
+        let other = grid_membrane(
+            seed + 1000,
+            r2,
+            c2,
+            m * 1.5,
+            layout,
+            !shared_rim,
+            inputs,
+            Around::Nothing,
+        );
+        let ball = net.add_material(Material::Mas {
+            m: 2.0,
+            x0: 3e-3,
+            v0: -3e-5,
+        });
+        let first = net.append(&other);
+        let at2 = |r: usize, c: usize| MatId(first.0 + (r * c2 + c) as u32);
+        let felt = Interaction::But {
+            k: 0.04,
+            z: 1e-3,
+            s: 0.0,
+        };
+        let hit = net.add_link(felt, at2(r2 - 1, 3), ball);
+        net.add_link(
+            Interaction::Ref { k: 0.05, z: 1e-3 },
+            at(1, 2),
+            at2(2, c2 - 4),
+        );
+        net.add_position_output(ball);
+        net.add_force_output(hit);
+    }
     net
 }
