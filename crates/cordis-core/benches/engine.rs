@@ -21,7 +21,8 @@
 //!   hammer (a MAS of inertia 4 declared after the membrane, falling from x = 2 at 0.01 per step
 //!   onto the mass at (R/3, C/3) through a BUT link, K and Z as the membrane's, S = 0): the unit
 //!   of work counts the hammer; `pair R C`: that struck membrane and a second one with its rim
-//!   declared after it, the two centres tied by a REF link (both membranes count);
+//!   declared after it, the two centres tied by a REF link (both membranes count); `graded R C`:
+//!   the membrane with its rim, the masses of row r of inertia M (1 + r / R);
 //! - `random N`: N masses, each the end 1 of 2 REF links to masses drawn by a seeded LCG (4 links
 //!   per mass on average), one ground tied to mass 0, strike on N/4, SOX on N/2.
 //!
@@ -164,6 +165,9 @@ enum Rim {
     /// Struck, and a second membrane with a rim after it, its centre tied to the first's by a
     /// link of the membranes' law (two sheets of the grid step).
     Pair,
+    /// The rim, and each mass of row `r` of inertia `M (1 + r / R)`: per-mass inertias, divided
+    /// by.
+    Graded,
 }
 
 /// As `gen_models.py build_membrane` (one ground per missing neighbour, horizontal links row by row
@@ -183,6 +187,22 @@ fn membrane(rows: usize, cols: usize, rim: Option<Rim>) -> Model {
         pair.masses += rows * cols;
         pair.name = format!("pair_{rows}x{cols}");
         return pair;
+    }
+    if rim == Some(Rim::Graded) {
+        let mut graded = membrane(rows, cols, Some(Rim::Fixed));
+        for (i, mat) in graded
+            .net
+            .materials
+            .iter_mut()
+            .take(rows * cols)
+            .enumerate()
+        {
+            if let Material::Mas { m, .. } = mat {
+                *m = M * (1.0 + (i / cols) as f64 / rows as f64);
+            }
+        }
+        graded.name = format!("graded_{rows}x{cols}");
+        return graded;
     }
     let mut net = Network::new();
     let mut idx = Vec::with_capacity(rows * cols);
@@ -253,7 +273,7 @@ fn membrane(rows: usize, cols: usize, rim: Option<Rim>) -> Model {
         Some(Rim::Fixed) => "rimmed",
         Some(Rim::Free) => "free",
         Some(Rim::Struck) => "struck",
-        Some(Rim::Pair) => unreachable!("a pair is two struck and rimmed membranes"),
+        Some(Rim::Pair | Rim::Graded) => unreachable!("built from the other membranes above"),
     };
     Model {
         name: format!("{kind}_{rows}x{cols}"),
@@ -1129,7 +1149,7 @@ fn work() -> u64 {
 fn usage() -> ! {
     eprintln!(
         "usage: cargo bench -p cordis-core --bench engine -- [string [N]] [but [N]] [lnl [N]] \
-         [membrane [R C | RxC]] [rimmed|free|struck|pair R C | RxC] [random [N]]...\n(no model: every default model)\n   \
+         [membrane [R C | RxC]] [rimmed|free|struck|pair|graded R C | RxC] [random [N]]...\n(no model: every default model)\n   \
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
          threads, default N = 100000 masses, T = 2)\n   \
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
@@ -1150,17 +1170,18 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "string" => Some(Law::Ref),
             "but" => Some(Law::But),
             "lnl" => Some(Law::Lnl),
-            "membrane" | "rimmed" | "free" | "struck" | "pair" | "random" => None,
+            "membrane" | "rimmed" | "free" | "struck" | "pair" | "graded" | "random" => None,
             _ => usage(),
         };
         let first = args.get(i).map(String::as_str);
         let explicit = match (kind, first) {
-            ("membrane" | "rimmed" | "free" | "struck" | "pair", Some(a)) => {
+            ("membrane" | "rimmed" | "free" | "struck" | "pair" | "graded", Some(a)) => {
                 let spec = |r, c| match kind {
                     "membrane" => Spec::Membrane(r, c),
                     "rimmed" => Spec::Rimmed(r, c, Rim::Fixed),
                     "free" => Spec::Rimmed(r, c, Rim::Free),
                     "pair" => Spec::Rimmed(r, c, Rim::Pair),
+                    "graded" => Spec::Rimmed(r, c, Rim::Graded),
                     _ => Spec::Rimmed(r, c, Rim::Struck),
                 };
                 if let Some((r, c)) = a

@@ -366,7 +366,8 @@ fn spring_networks_equal_the_reference() {
 
 /// Membranes that take the grid step on an AVX-512 CPU (`engine/grid.rs`: every force in
 /// registers, row by row) equal the reference at every step, in every output (positions, link
-/// forces, a sum), for widths of every remainder of 8, multiplied and divided inertias, SOL at
+/// forces, a sum), for widths of every remainder of 8, multiplied and divided inertias (one for
+/// the membrane, or each MAS its own), SOL at
 /// their own positions or one rim, links declared as the C kit, the language's `membrane` or a
 /// mix of orders and ends, with and without ENF inputs, alone, with free edges, in an
 /// instrument (a hammer, a CEL, an ENX, a link across) or with a second membrane tied to it, in
@@ -383,21 +384,30 @@ fn grid_membranes_equal_the_reference() {
         (9, 19),
     ];
     for (i, &(rows, cols)) in sizes.iter().enumerate() {
-        for (m, shared_rim, inputs, around) in [
-            (1.0, false, true, Around::Nothing),
-            (0.5, true, false, Around::Nothing),
-            (1.5, false, false, Around::Nothing),
-            (1.25, true, true, Around::Nothing),
-            (1.0, false, true, Around::Instrument),
-            (1.5, true, false, Around::Instrument),
-            (0.5, false, true, Around::FreeEdges),
-            (1.25, true, false, Around::FreeEdges),
-            (1.0, false, true, Around::Pair),
-            (0.5, true, false, Around::Pair),
+        // (with `varied`, per-MAS inertias: `Some(true)` powers of two, `Some(false)` any)
+        for (m, shared_rim, inputs, around, varied) in [
+            (1.0, false, true, Around::Nothing, None),
+            (0.5, true, false, Around::Nothing, None),
+            (1.5, false, false, Around::Nothing, None),
+            (1.25, true, true, Around::Nothing, None),
+            (1.0, false, true, Around::Instrument, None),
+            (1.5, true, false, Around::Instrument, None),
+            (0.5, false, true, Around::FreeEdges, None),
+            (1.25, true, false, Around::FreeEdges, None),
+            (1.0, false, true, Around::Pair, None),
+            (0.5, true, false, Around::Pair, None),
+            (1.0, false, true, Around::Nothing, Some(true)),
+            (1.5, true, true, Around::Instrument, Some(false)),
+            (0.5, false, false, Around::Pair, Some(false)),
         ] {
             let layout = [GridLayout::Kit, GridLayout::Rimmed, GridLayout::Mixed][i % 3];
             let seed = i as u64 + 1;
-            let net = grid_membrane(seed, rows, cols, m, layout, shared_rim, inputs, around);
+            let mut net = grid_membrane(seed, rows, cols, m, layout, shared_rim, inputs, around);
+            match varied {
+                Some(true) => vary_inertias(&mut net, &[1.0, 0.5, 2.0, 1.0, 4.0]),
+                Some(false) => vary_inertias(&mut net, &[1.0, 0.7, 3.0, 1.25]),
+                None => {}
+            }
             let steps = 1200;
             let expected = reference(&net, steps);
             for block in [1, 7, 1024] {
@@ -405,8 +415,8 @@ fn grid_membranes_equal_the_reference() {
                 assert_eq!(
                     first_bit_difference(&got, &expected),
                     None,
-                    "{rows}x{cols} {layout:?} {around:?}, M {m}, rim {shared_rim}, inputs {inputs}, \
-                     block {block}"
+                    "{rows}x{cols} {layout:?} {around:?}, M {m} {varied:?}, rim {shared_rim}, \
+                     inputs {inputs}, block {block}"
                 );
             }
             let ch = net.outputs.len();

@@ -442,7 +442,7 @@ fn a_blow_up_is_reported_at_the_same_step_and_module_with_threads() {
 
 /// Membranes of the grid step's kind (on an AVX-512 CPU: one barrier per step, each thread its
 /// consecutive rows, the first recomputing the links up from the row above, thread 0 stepping
-/// what is around the membrane), as many threads as rows or more.
+/// what is around the membrane), as many threads as rows or more; some with per-MAS inertias.
 #[test]
 fn grid_membranes_match_on_any_thread_count_and_block_size() {
     for (seed, rows, cols, m, steps, layout, around) in [
@@ -457,7 +457,16 @@ fn grid_membranes_match_on_any_thread_count_and_block_size() {
         (9, 3, 16, 1.0, 300, GridLayout::Kit, Around::Pair),
         (10, 20, 30, 0.5, 300, GridLayout::Mixed, Around::Pair),
     ] {
-        let net = grid_membrane(seed, rows, cols, m, layout, seed == 2, true, around);
+        let mut net = grid_membrane(seed, rows, cols, m, layout, seed == 2, true, around);
+        if seed % 3 == 0 {
+            // (per-MAS inertias, powers of two for seed 3, any for 6 and 9)
+            let factors: &[f64] = if seed == 3 {
+                &[1.0, 2.0, 0.5]
+            } else {
+                &[1.0, 1.5, 0.8]
+            };
+            vary_inertias(&mut net, factors);
+        }
         let expected = single_thread_checked(&net, steps);
         check_all(
             &net,

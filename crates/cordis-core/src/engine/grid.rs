@@ -9,8 +9,10 @@
 //! their rows ([`super::Mobiles`]). The gather step computes every link
 //! force into a buffer and the MAS loop reads four of them back per MAS: on a 100x100 membrane the
 //! buffer's traffic, not the arithmetic, bounds it (docs/BENCHMARKS.md). The grid step keeps no
-//! force buffer. A network may hold several membranes, each a [`Sheet`] with its own size, law
-//! and inertia, found one after the other in storage ([`Grid::new`]). Going down each sheet's
+//! force buffer. A network may hold several membranes, each a [`Sheet`] with its own size and
+//! law, found one after the other in storage ([`Grid::new`]); a sheet's MAS have one inertia, or
+//! each its own (`Sheet::per_mas`: the row loop then loads eight of them where it would
+//! broadcast one). Going down each sheet's
 //! rows, eight MAS at a time:
 //!
 //! - each MAS's velocity `v = x(n) - x(n-1)` is computed once, when its row is the one below, and
@@ -134,9 +136,11 @@ struct Sheet {
     cols: usize,
     k: f64,
     z: f64,
-    /// `1 / M` to multiply by, or (`div`) `M` to divide by: every MAS's
+    /// `1 / M` to multiply by, or (`div`) `M` to divide by: every MAS's; unless `per_mas`, when
+    /// each MAS's is its own, in the kernel's [`MasLaw`] (`Inv` or `Div`)
     m: f64,
     div: bool,
+    per_mas: bool,
     /// The SOL (storage slot) on the left and on the right of each row, above and below each column
     left: Vec<u32>,
     right: Vec<u32>,
@@ -176,8 +180,8 @@ enum FixTerm {
 /// and a model that is mostly something else keeps the gather step.
 const OUTSIDE_SHARE: usize = 2;
 
-/// How many places that look like a sheet's first MAS but are none (a per-MAS-inertia membrane,
-/// a coupling that ties a row further than the next) are tried before the search for sheets
+/// How many places that look like a sheet's first MAS but are none (a membrane of other laws
+/// than one REF, a coupling that ties a row further than the next) are tried before the search for sheets
 /// stops: each costs up to a pass over a sheet.
 const REFUSED_MAX: usize = 16;
 
@@ -230,6 +234,9 @@ struct RowArgs<'a> {
     xp: &'a [f64],
     below: (&'a [f64], &'a [f64]),
     next: &'a mut [f64],
+    /// Every material's `1 / M` or `M` (by storage slot), or nothing when all the sheet's MAS
+    /// have one ([`Sheet::per_mas`])
+    ms: &'a [f64],
     vc: &'a [f64],
     vn: &'a mut [f64],
     up: &'a mut [f64],
@@ -432,11 +439,16 @@ impl Sheet {
                 .then(|| v[0])
         };
         let mine = base..base + n;
-        let (m, div) = match &k.mas {
-            MasLaw::UniformInv(inv) => (*inv, false),
-            MasLaw::UniformDiv(m) => (*m, true),
-            MasLaw::Inv(inv) => (uniform(&inv[mine.clone()])?, false),
-            MasLaw::Div(ms) => (uniform(&ms[mine.clone()])?, true),
+        // (`m` is unused with `per_mas`)
+        let (m, div, per_mas) = match &k.mas {
+            MasLaw::UniformInv(inv) => (*inv, false, false),
+            MasLaw::UniformDiv(m) => (*m, true, false),
+            MasLaw::Inv(inv) => {
+                uniform(&inv[mine.clone()]).map_or((0.0, false, true), |m| (m, false, false))
+            }
+            MasLaw::Div(ms) => {
+                uniform(&ms[mine.clone()]).map_or((0.0, true, true), |m| (m, true, false))
+            }
         };
         let mut law = vec![Law::Ref; k.nl];
         for run in &k.whole.runs {
@@ -459,6 +471,7 @@ impl Sheet {
             z: zz,
             m,
             div,
+            per_mas,
             left: vec![0; rows],
             right: vec![0; rows],
             top: vec![0; cols],
@@ -612,6 +625,7 @@ impl Sheet {
         let (gx, gp) = rest.split_at_mut(self.stride());
         let link =
             |xa: f64, va: f64, xb: f64, vb: f64| RefLaw::force(self.k, self.z, 0.0, xa, va, xb, vb);
+        let ms = self.inertias(k);
         // the first row's velocities, and the links into it from above
         let r0 = self.base + rows.start * cols;
         for (c, v) in vc[..cols].iter_mut().enumerate() {
@@ -643,6 +657,7 @@ impl Sheet {
                 xp: prev,
                 below,
                 next: &mut next[i..i + cols],
+                ms,
                 vc: &vc[..],
                 vn: &mut vn[..],
                 up: &mut up[..],
@@ -677,16 +692,21 @@ impl Sheet {
                 }
             }
             let (x, xp) = (cur[s], prev[s]);
-            next[s - slots.start] = self.update(x, xp, f);
+            let m = ms.get(s).copied().unwrap_or(self.m);
+            next[s - slots.start] = if self.div {
+                Self::update_as::<true>(x, xp, f, m)
+            } else {
+                Self::update_as::<false>(x, xp, f, m)
+            };
         }
     }
 
-    #[inline(always)]
-    fn update(&self, x: f64, xp: f64, f: f64) -> f64 {
-        if self.div {
-            Self::update_as::<true>(x, xp, f, self.m)
-        } else {
-            Self::update_as::<false>(x, xp, f, self.m)
+    /// Every material's `1 / M` or `M` (by storage slot) if the sheet's MAS each have their own
+    /// ([`Sheet::per_mas`]), else nothing.
+    fn inertias<'k>(&self, k: &'k Kernel) -> &'k [f64] {
+        match &k.mas {
+            MasLaw::Inv(ms) | MasLaw::Div(ms) if self.per_mas => ms,
+            _ => &[],
         }
     }
 
@@ -705,11 +725,15 @@ impl Sheet {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: `self.cpu` exists, so the CPU has AVX-512F (see `Avx512::detect`).
         unsafe {
-            match (self.div, self.mid[r] == Order::UP_LAST) {
-                (true, true) => self.row::<true, true>(r, args),
-                (true, false) => self.row::<true, false>(r, args),
-                (false, true) => self.row::<false, true>(r, args),
-                (false, false) => self.row::<false, false>(r, args),
+            match (self.div, self.mid[r] == Order::UP_LAST, self.per_mas) {
+                (true, true, false) => self.row::<true, true, false>(r, args),
+                (true, false, false) => self.row::<true, false, false>(r, args),
+                (false, true, false) => self.row::<false, true, false>(r, args),
+                (false, false, false) => self.row::<false, false, false>(r, args),
+                (true, true, true) => self.row::<true, true, true>(r, args),
+                (true, false, true) => self.row::<true, false, true>(r, args),
+                (false, true, true) => self.row::<false, true, true>(r, args),
+                (false, false, true) => self.row::<false, false, true>(r, args),
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
@@ -722,15 +746,21 @@ impl Sheet {
     /// Row `r`: `x(n+1)` into `next`, from the state `x`, `xp`, the row below (`x(n)`, `x(n-1)`,
     /// `cols` each: the next row, or the bottom grounds), the row's velocities `vc`; writes the
     /// row below's velocities into `vn` and its links down into `up` (where they were the links up).
+    /// Each MAS's `1 / M` or `M` is `Sheet::m`, or (`PER_MAS`) its own in `ms`.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    fn row<const DIV: bool, const UP_LAST: bool>(&self, r: usize, a: RowArgs<'_>) {
+    fn row<const DIV: bool, const UP_LAST: bool, const PER_MAS: bool>(
+        &self,
+        r: usize,
+        a: RowArgs<'_>,
+    ) {
         let (cols, stride) = (self.cols, self.stride());
         let RowArgs {
             x,
             xp,
             below: (xd, pd),
             next,
+            ms,
             vc,
             vn,
             up,
@@ -738,6 +768,8 @@ impl Sheet {
         let row = self.base + r * cols;
         // every access below is within these (checked once here)
         let (xr, pr) = (&x[row..row + cols], &xp[row..row + cols]);
+        let mr = if PER_MAS { &ms[row..row + cols] } else { &[] };
+        let m_at = |c: usize| if PER_MAS { mr[c] } else { self.m };
         assert!(xd.len() == cols && pd.len() == cols && next.len() == cols);
         assert!(vc.len() == stride && vn.len() == stride && up.len() == stride);
         assert!(cols >= COLS_MIN);
@@ -759,8 +791,8 @@ impl Sheet {
         let mut hl = h0;
         let u0 = up[0];
         // SAFETY: every load and store is of 8 items from `c0 < full` or `c0 + 8 <= full` on,
-        // `full + 8 <= cols + 7 < stride`, within `xr`, `pr`, `xd`, `pd`, `next` (`cols` each:
-        // `c0 + 8 <= full < cols`) or the row buffers (`stride` each), asserted above; the next
+        // `full + 8 <= cols + 7 < stride`, within `xr`, `pr`, `xd`, `pd`, `next`, and with
+        // `PER_MAS` `mr` (`cols` each: `c0 + 8 <= full < cols`) or the row buffers (`stride` each), asserted above; the next
         // block's `x` is loaded whole only when it is within the row (`c0 + 8 < full`).
         unsafe {
             let mut xa = _mm512_loadu_pd(xr.as_ptr());
@@ -800,6 +832,11 @@ impl Sheet {
                 };
                 // `2 x - x' + F / M` (or `F (1 / M)`), as `by_div` (`by_inv`)
                 let p = _mm512_loadu_pd(pr.as_ptr().add(c0));
+                let m8 = if PER_MAS {
+                    _mm512_loadu_pd(mr.as_ptr().add(c0))
+                } else {
+                    m8
+                };
                 let by = if DIV {
                     _mm512_div_pd(f, m8)
                 } else {
@@ -836,7 +873,7 @@ impl Sheet {
                 let d = link(x0, v0, xd[c], v);
                 let f = $order.sum([hl, -h, up[c], -d]);
                 up[c] = d;
-                next[c] = Self::update_as::<DIV>(x0, pr[c], f, self.m);
+                next[c] = Self::update_as::<DIV>(x0, pr[c], f, m_at(c));
                 h
             }};
         }
@@ -854,7 +891,7 @@ impl Sheet {
             let (x0, v0) = (xr[0], vc[0]);
             let h = link(x0, v0, xr[1], vc[1]);
             let f = self.first[r].sum([h0, -h, u0, -up[0]]);
-            next[0] = Self::update_as::<DIV>(x0, pr[0], f, self.m);
+            next[0] = Self::update_as::<DIV>(x0, pr[0], f, m_at(0));
         }
     }
 }

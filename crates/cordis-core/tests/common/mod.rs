@@ -443,6 +443,18 @@ pub enum Around {
     Pair,
 }
 
+/// Multiplies the inertia of the `i`-th MAS of `net` (in declaration order) by `factors[i %
+/// factors.len()]`: per-MAS inertias, all powers of two times the old ones or not.
+pub fn vary_inertias(net: &mut Network, factors: &[f64]) {
+    let masses = net.materials.iter_mut().filter_map(|m| match m {
+        Material::Mas { m, .. } => Some(m),
+        _ => None,
+    });
+    for (i, m) in masses.enumerate() {
+        *m *= factors[i % factors.len()];
+    }
+}
+
 /// A membrane the grid step takes (`engine/grid.rs`): `rows x cols` MAS of inertia `m`, row by
 /// row, each tied by REF links of one K and Z to its four neighbours, and a border MAS to a SOL
 /// in place of each missing one, declared as `layout` says, with `around` around it. The SOL
