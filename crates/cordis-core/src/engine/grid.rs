@@ -12,8 +12,7 @@
 //! force buffer. A network may hold several membranes, each a [`Sheet`] with its own size and
 //! law, found one after the other in storage ([`Grid::new`]); a sheet's MAS have one inertia, or
 //! each its own (`Sheet::per_mas`: the row loop then loads eight of them where it would
-//! broadcast one). Going down each sheet's
-//! rows, eight MAS at a time:
+//! broadcast one). Going down each sheet's rows, eight MAS at a time:
 //!
 //! - each MAS's velocity `v = x(n) - x(n-1)` is computed once, when its row is the one below, and
 //!   kept in a row buffer;
@@ -54,9 +53,10 @@
 //! between or after them in storage: a hammer, a CEL, an ENX, a membrane too narrow for a sheet)
 //! are stepped each step as the gather step does, their links' forces computed into `sf` first
 //! ([`Grid::outside_links`], [`Grid::outside_mats`]); a model where they, their links and the
-//! fixes' terms are more than half the sheets' MAS keeps the gather step ([`OUTSIDE_SHARE`]). The loads and shuffles are
-//! AVX-512 (an [`Avx512`] token is the CPU's proof); `tests/engine.rs` compares every step with
-//! the reference, and `engine.rs`'s tests with the gather step.
+//! fixes' terms are more than half the sheets' MAS keeps the gather step ([`OUTSIDE_SHARE`]).
+//! The loads and shuffles are AVX-512 (an [`Avx512`] token is the CPU's proof);
+//! `tests/engine.rs` compares every step with the reference, and `engine.rs`'s tests with the
+//! gather step.
 
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
@@ -181,8 +181,8 @@ enum FixTerm {
 const OUTSIDE_SHARE: usize = 2;
 
 /// How many places that look like a sheet's first MAS but are none (a membrane of other laws
-/// than one REF, a coupling that ties a row further than the next) are tried before the search for sheets
-/// stops: each costs up to a pass over a sheet.
+/// than one REF, a coupling that ties a row further than the next) are tried before the search
+/// for sheets stops: each costs up to a pass over a sheet.
 const REFUSED_MAX: usize = 16;
 
 /// The terms of material `s` (a storage slot below `n_mc`): `Kernel::eidx`.
@@ -601,7 +601,8 @@ impl Sheet {
     }
 
     /// Step `n` of `rows`: `x(n+1)` of their MAS into `next` (exactly their slots), from `x(n)`,
-    /// `x(n-1)` of every material, with `scratch` (at least five row buffers, [`Grid::scratch_len`]).
+    /// `x(n-1)` of every material, with `scratch` (at least five row buffers,
+    /// [`Grid::scratch_len`]).
     #[allow(clippy::too_many_arguments)] // the step's buffers
     fn step(
         &self,
@@ -792,8 +793,9 @@ impl Sheet {
         let u0 = up[0];
         // SAFETY: every load and store is of 8 items from `c0 < full` or `c0 + 8 <= full` on,
         // `full + 8 <= cols + 7 < stride`, within `xr`, `pr`, `xd`, `pd`, `next`, and with
-        // `PER_MAS` `mr` (`cols` each: `c0 + 8 <= full < cols`) or the row buffers (`stride` each), asserted above; the next
-        // block's `x` is loaded whole only when it is within the row (`c0 + 8 < full`).
+        // `PER_MAS` `mr` (`cols` each: `c0 + 8 <= full < cols`) or the row buffers (`stride`
+        // each), asserted above (`mr` sliced to `cols`); the next block's `x` is loaded whole
+        // only when it is within the row (`c0 + 8 < full`).
         unsafe {
             let mut xa = _mm512_loadu_pd(xr.as_ptr());
             let mut va = _mm512_loadu_pd(vc.as_ptr());
