@@ -119,8 +119,12 @@ pub(super) struct Grid {
     /// ascending, none empty
     outside: Vec<Range<usize>>,
     /// The links of the moving materials outside the sheets, stepped as the gather step does,
-    /// after the links of `outside_runs` and the ENF inputs are computed into `sf`.
+    /// after the links of `outside_runs` and the ENF inputs of `outside_inputs` are computed into
+    /// `sf`.
     outside_runs: Vec<Run>,
+    /// The ENF inputs on the materials outside the sheets, as ranges of input indices (the
+    /// fixes compute those on the sheets' MAS themselves).
+    outside_inputs: Vec<Range<usize>>,
     /// The links the outputs read (see [`Kernel::recorded_links`]).
     recorded: Vec<Run>,
 }
@@ -294,20 +298,26 @@ impl Grid {
         }
         outside.push(start..k.n_mce);
         outside.retain(|o| !o.is_empty());
-        let mut wanted = vec![false; k.nl];
-        // (an ENX has no terms: its position is its signal)
+        // their links' and inputs' terms (an ENX has no terms: its position is its signal)
+        let mut wanted = vec![false; k.nl + k.enf.len()];
         for s in outside
             .iter()
             .flat_map(|o| o.start.min(k.n_mc)..o.end.min(k.n_mc))
         {
             for &e in terms(k, s) {
-                if let Some(w) = wanted.get_mut((e & !NEG) as usize) {
-                    *w = true;
-                }
+                wanted[(e & !NEG) as usize] = true;
+            }
+        }
+        let mut outside_inputs: Vec<Range<usize>> = Vec::new();
+        for i in (0..k.enf.len()).filter(|&i| wanted[k.nl + i]) {
+            match outside_inputs.last_mut() {
+                Some(r) if r.end == i => r.end += 1,
+                _ => outside_inputs.push(i..i + 1),
             }
         }
         let g = Grid {
-            outside_runs: k.runs_of(&wanted)?,
+            outside_runs: k.runs_of(&wanted[..k.nl])?,
+            outside_inputs,
             recorded: k.recorded_links()?,
             row0,
             outside,
@@ -380,8 +390,8 @@ impl Grid {
         }
     }
 
-    /// Step `n`'s ENF inputs and forces of the links of `outside_runs` into `sf`, for the
-    /// materials outside the sheets (nothing when there are none).
+    /// Step `n`'s ENF inputs of `outside_inputs` and forces of the links of `outside_runs` into
+    /// `sf`, for the materials outside the sheets (nothing when there are none).
     pub(super) fn outside_links(
         &self,
         k: &Kernel,
@@ -392,7 +402,9 @@ impl Grid {
         if self.outside.is_empty() {
             return;
         }
-        k.inputs(0..k.enf.len(), n, &mut sf[k.nl..]);
+        for inputs in &self.outside_inputs {
+            k.inputs(inputs.clone(), n, &mut sf[k.nl + inputs.start..]);
+        }
         let state = Positions::new(k, cur, prev);
         for run in &self.outside_runs {
             k.run_links(run, &state, &mut sf[run.start..run.end]);
