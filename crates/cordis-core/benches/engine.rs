@@ -23,6 +23,9 @@
 //!   of work counts the hammer; `pair R C`: that struck membrane and a second one with its rim
 //!   declared after it, the two centres tied by a REF link (both membranes count); `graded R C`:
 //!   the membrane with its rim, the masses of row r of inertia M (1 + r / R);
+//! - `strings S N` (or `strings SxN`): S strings of N masses, each declared as the language's
+//!   `string` generator does (two grounds of its own), string s of stiffness K (1 + s / 100),
+//!   each struck on its mass N/4, SOX on the middle of the first; no default size;
 //! - `random N`: N masses, each the end 1 of 2 REF links to masses drawn by a seeded LCG (4 links
 //!   per mass on average), one ground tied to mass 0, strike on N/4, SOX on N/2.
 //!
@@ -95,6 +98,11 @@ enum Spec {
     /// without, or struck by a hammer.
     Rimmed(usize, usize, Rim),
     Random(usize),
+    /// `strings S N`: S strings of N masses, each as the language's `string` generator declares
+    /// it (its masses, a left ground and its link, the inner links, a right ground and its
+    /// link), string `s` of stiffness `K (1 + s / 100)`; a bank of short strings (a harp, a
+    /// piano's unison courses).
+    Strings(usize, usize),
 }
 
 const DEFAULT_MODELS: [Spec; 6] = [
@@ -149,6 +157,37 @@ fn string(n: usize, law: Law) -> Model {
         name,
         net,
         masses: n,
+        out,
+    }
+}
+
+/// `strings` strings of `n` masses, each declared as the language's `string` generator does,
+/// string `s` of stiffness `K (1 + s / 100)` and struck on its mass `n / 4`; SOX on the middle
+/// of the first string.
+fn strings(strings: usize, n: usize) -> Model {
+    let mut net = Network::new();
+    let mut out = None;
+    for s in 0..strings {
+        let k = K * (1.0 + s as f64 / 100.0);
+        let law = Interaction::Ref { k, z: Z };
+        let masses: Vec<MatId> = (0..n)
+            .map(|i| mass(&mut net, if i == n / 4 { V0 } else { 0.0 }))
+            .collect();
+        let left = ground(&mut net);
+        net.add_link(law.clone(), left, masses[0]);
+        for w in masses.windows(2) {
+            net.add_link(law.clone(), w[0], w[1]);
+        }
+        let right = ground(&mut net);
+        net.add_link(law, masses[n - 1], right);
+        out = out.or(Some(masses[n / 2]));
+    }
+    let out = out.expect("at least one string");
+    net.add_position_output(out);
+    Model {
+        name: format!("strings_{strings}x{n}"),
+        net,
+        masses: strings * n,
         out,
     }
 }
@@ -360,6 +399,7 @@ fn build(spec: &Spec) -> Model {
         Spec::Membrane(r, c) => membrane(r, c, None),
         Spec::Rimmed(r, c, rim) => membrane(r, c, Some(rim)),
         Spec::Random(n) => random(n),
+        Spec::Strings(s, n) => strings(s, n),
     }
 }
 
@@ -1149,7 +1189,8 @@ fn work() -> u64 {
 fn usage() -> ! {
     eprintln!(
         "usage: cargo bench -p cordis-core --bench engine -- [string [N]] [but [N]] [lnl [N]] \
-         [membrane [R C | RxC]] [rimmed|free|struck|pair|graded R C | RxC] [random [N]]...\n(no model: every default model)\n   \
+         [membrane [R C | RxC]] [rimmed|free|struck|pair|graded R C | RxC] [strings S N | SxN] \
+         [random [N]]...\n(no model: every default model)\n   \
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
          threads, default N = 100000 masses, T = 2)\n   \
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
@@ -1170,13 +1211,18 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "string" => Some(Law::Ref),
             "but" => Some(Law::But),
             "lnl" => Some(Law::Lnl),
-            "membrane" | "rimmed" | "free" | "struck" | "pair" | "graded" | "random" => None,
+            "membrane" | "rimmed" | "free" | "struck" | "pair" | "graded" | "random"
+            | "strings" => None,
             _ => usage(),
         };
         let first = args.get(i).map(String::as_str);
         let explicit = match (kind, first) {
-            ("membrane" | "rimmed" | "free" | "struck" | "pair" | "graded", Some(a)) => {
+            (
+                "membrane" | "rimmed" | "free" | "struck" | "pair" | "graded" | "strings",
+                Some(a),
+            ) => {
                 let spec = |r, c| match kind {
+                    "strings" => Spec::Strings(r, c),
                     "membrane" => Spec::Membrane(r, c),
                     "rimmed" => Spec::Rimmed(r, c, Rim::Fixed),
                     "free" => Spec::Rimmed(r, c, Rim::Free),
@@ -1209,6 +1255,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
         match explicit {
             Some(Spec::String(n, _) | Spec::Random(n)) if n < 2 => usage(),
             Some(Spec::Membrane(r, c) | Spec::Rimmed(r, c, _)) if r < 3 || c < 3 => usage(), // the strike is at (2,2)
+            Some(Spec::Strings(_, n)) if n < 2 => usage(),
             Some(spec) => specs.push(spec),
             None => specs.extend(
                 DEFAULT_MODELS
@@ -1218,6 +1265,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
                         (Spec::Membrane(..), k) => k == "membrane",
                         (Spec::Rimmed(..), _) => false,
                         (Spec::Random(_), k) => k == "random",
+                        (Spec::Strings(..), _) => false,
                     })
                     .cloned(),
             ),

@@ -133,6 +133,20 @@ enum Mobiles {
     Declared,
 }
 
+/// How [`Kernel::build_with`] joins progressions into loops with exceptions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Joins {
+    /// Not at all: every progression is a loop of its own (the compact step's storage).
+    Off,
+    /// Across at most [`GAP_MAX`] items within a run of one law and parameters ([`bridged`]): a
+    /// membrane's rows are one loop.
+    Rows,
+    /// Also across runs of one law and different parameters, the links of one law and distance
+    /// stored as one band ([`link_order`], [`joined`]): short strings of their own stiffnesses
+    /// are one loop.
+    Runs,
+}
+
 /// Shortest stretch of identical links that gets a uniform run of its own.
 const UNIFORM_MIN: usize = 8;
 /// Shortest arithmetic progression of link ends, or of edges, that gets a loop without indices
@@ -1155,7 +1169,7 @@ impl Kernel {
         if grid::may_hold(net) {
             // (stored with its MAS in declaration order, so that a membrane's border and struck
             // MAS stay in their rows)
-            let mut k = Kernel::build_with(net, false, true, Mobiles::Declared);
+            let mut k = Kernel::build_with(net, false, Joins::Rows, Mobiles::Declared);
             if let Some(g) = grid::Grid::new(&k) {
                 k.grid = Some(Box::new(g));
                 return k;
@@ -1178,7 +1192,20 @@ impl Kernel {
     fn choose(net: &Network) -> Kernel {
         let k = Kernel::build(net, false, true);
         if k.n_mce > COMPACT_MAX || !(k.mostly_indexed() || k.n_mce <= TINY) {
-            return k;
+            if !k.varied_progressions() {
+                return k;
+            }
+            // (strings of their own stiffnesses: stored again with the links of one law and
+            // distance one band, their progressions joined, see `joined`, when that makes fewer
+            // runs)
+            let runs = k.whole.runs.len();
+            drop(k);
+            let joined = Kernel::build_with(net, false, Joins::Runs, Mobiles::ByDegree);
+            if joined.whole.runs.len() < runs {
+                return joined;
+            }
+            drop(joined);
+            return Kernel::build(net, false, true);
         }
         // (the compact step accumulates each force as it is computed: it has no exceptions to
         // recompute)
@@ -1194,6 +1221,26 @@ impl Kernel {
                 k
             }
         }
+    }
+
+    /// Whether two progressions of one law (runs with `Ends::Step`) have different parameters, or
+    /// one has per-link parameters: strings of their own stiffnesses, which [`Joins::Runs`] may
+    /// store as one loop.
+    fn varied_progressions(&self) -> bool {
+        let mut seen: Vec<(Law, [u64; 3], u32)> = Vec::new();
+        for r in (self.whole.runs.iter()).filter(|r| matches!(r.ends, Ends::Step { .. })) {
+            let bits = |v: &[f64]| v.get(r.start).map_or(0, |x| x.to_bits());
+            let lnl = self.lnl_of.get(r.start).copied().unwrap_or(0);
+            let key = (r.law, [bits(&self.lk), bits(&self.lz), bits(&self.ls)], lnl);
+            // (at most one key per law is kept: the second of a law returns)
+            if !r.uniform || seen.iter().any(|s| s.0 == key.0 && *s != key) {
+                return true;
+            }
+            if !seen.contains(&key) {
+                seen.push(key);
+            }
+        }
+        false
     }
 
     /// Gives this kernel (built without exceptions) the compact step, stored as it is or rebuilt
@@ -1245,22 +1292,26 @@ impl Kernel {
     }
 
     /// [`Kernel::new`] with the links stored in [`link_order`], or in declaration order when
-    /// `declaration_order`; with `bridge`, progressions joined across exceptions ([`bridged`]),
-    /// each ground link placed only where no other is ([`placed_in_bands`]) and the SOLs stored
-    /// in the order of their links. Stepping is not chosen yet (`compact` is false).
+    /// `declaration_order`; with `bridge`, progressions joined across exceptions ([`bridged`],
+    /// [`Joins::Rows`]), each ground link placed only where no other is ([`placed_in_bands`]) and
+    /// the SOLs stored in the order of their links. Stepping is not chosen yet (`compact` is
+    /// false).
     #[track_caller]
     fn build(net: &Network, declaration_order: bool, bridge: bool) -> Kernel {
-        Kernel::build_with(net, declaration_order, bridge, Mobiles::ByDegree)
+        let joins = if bridge { Joins::Rows } else { Joins::Off };
+        Kernel::build_with(net, declaration_order, joins, Mobiles::ByDegree)
     }
 
-    /// [`Kernel::build`] with the mobile materials ordered in storage as `mobiles` says.
+    /// [`Kernel::build`] with the progressions joined as `joins` says and the mobile materials
+    /// ordered in storage as `mobiles` says.
     #[track_caller]
     fn build_with(
         net: &Network,
         declaration_order: bool,
-        bridge: bool,
+        joins: Joins,
         mobiles: Mobiles,
     ) -> Kernel {
+        let bridge = joins != Joins::Off;
         let nm = net.materials.len();
         assert!(
             u32::try_from(nm).is_ok(),
@@ -1334,7 +1385,7 @@ impl Kernel {
         let lslot = if declaration_order {
             (0..net.links.len() as u32).collect()
         } else {
-            link_order(net, &slot, n_mc, bridge)
+            link_order(net, &slot, n_mc, bridge, joins == Joins::Runs)
         };
         let mut by_slot = vec![0usize; nl];
         for (d, &l) in lslot.iter().enumerate() {
@@ -1501,6 +1552,13 @@ impl Kernel {
                 })
             })
             .collect();
+        // (progressions continued across a change of parameters: strings of different
+        // stiffnesses, one after the other)
+        let runs = if joins == Joins::Runs {
+            joined(runs, &mut link_fix)
+        } else {
+            runs
+        };
         // every term of a progression is its link's end, or, at the exceptions, a slot between
         // two that are (so `< nm`)
         for run in &runs {
@@ -2048,45 +2106,32 @@ impl Kernel {
             self.lz[s0],
             self.ls.get(s0).map_or(0.0, |s| *s),
         );
-        self.law_run::<L, S>(run, st, lf, |_| (k, z, s));
+        self.by_velocity::<L, S, _>(run, st, lf, Shared(k, z, s));
     }
 
     /// A run of a law with parameters, each link with its own.
     #[inline(always)]
     fn varied<L: LinkLaw, S: Sink>(&self, run: &Run, st: &Positions<'_, S>, lf: &mut [f64]) {
         let r = run.start..run.end;
-        let (lk, lz) = (&self.lk[r.clone()], &self.lz[r.clone()]);
+        let (k, z) = (&self.lk[r.clone()], &self.lz[r.clone()]);
         // (no S without a BUT: the laws that have none ignore the slice they are given)
-        let ls = self.ls.get(r).unwrap_or(lk);
-        self.law_run::<L, S>(run, st, lf, |i| (lk[i], lz[i], ls[i]));
+        let s = self.ls.get(r).unwrap_or(k);
+        self.by_velocity::<L, S, _>(run, st, lf, PerLink { k, z, s });
     }
 
-    /// A run of a law with parameters `(K, Z, S) = params(i)` for its `i`-th link.
+    /// Computes the force of law `L` for every link `i` of `run`, with parameters
+    /// `params.at(i)`, storing it into `lf`: a chain (see [`chain`]) with AVX-512, or
+    /// [`Kernel::each`] with the velocities computed there, operand for operand.
     #[inline(always)]
-    fn law_run<L: LinkLaw, S: Sink>(
+    fn by_velocity<L: LinkLaw, S: Sink, P: LinkParams>(
         &self,
         run: &Run,
         st: &Positions<'_, S>,
         lf: &mut [f64],
-        params: impl Fn(usize) -> (f64, f64, f64),
+        params: P,
     ) {
-        self.by_velocity(run, st, lf, |i, xa, va, xb, vb| {
-            let (k, z, s) = params(i);
-            L::force(k, z, s, xa, va, xb, vb)
-        });
-    }
-
-    /// Runs `force(i, x1, x1 - x1', x2, x2 - x2')` for every link `i` of `run`, storing `f` into
-    /// `lf`: a chain (see [`chain`]) with AVX-512, or [`Kernel::each`] with the velocities
-    /// computed there, operand for operand.
-    #[inline(always)]
-    fn by_velocity<S: Sink>(
-        &self,
-        run: &Run,
-        st: &Positions<'_, S>,
-        lf: &mut [f64],
-        force: impl Fn(usize, f64, f64, f64, f64) -> f64,
-    ) {
+        let law = |(k, z, s): (f64, f64, f64), xa, va, xb, vb| L::force(k, z, s, xa, va, xb, vb);
+        let force = |i, xa, va, xb, vb| law(params.at(i), xa, va, xb, vb);
         let by_ends = |i, xa: f64, pa: f64, xb: f64, pb: f64| force(i, xa, xa - pa, xb, xb - pb);
         if let (
             Some(cpu),
@@ -2101,7 +2146,7 @@ impl Kernel {
             if b0 == a0 + 1 && !S::ACCUMULATES {
                 let (n, a) = (run.end - run.start, a0 as usize);
                 let (x, xp) = (&st.x[a..a + n + 1], &st.xp[a..a + n + 1]);
-                chain(cpu, x, xp, &mut lf[..n], &force);
+                chain(cpu, x, xp, &mut lf[..n], params, law);
                 self.fix_links(run, st, lf, by_ends);
                 return;
             }
@@ -2421,19 +2466,43 @@ impl Kernel {
             };
             self.mas_streams(seg, streams, start..end, (cur, prev, &mut *next, sf));
             // the exceptions, computed with the streams' terms, now with their edges
-            for &s in self.fixes(&self.mas_fix, start..end) {
-                let (s, i) = (s as usize, s as usize - start);
-                let f = sum(
-                    &self.eidx[self.eoff[s] as usize..self.eoff[s + 1] as usize],
-                    sf,
-                );
-                next[i] = match &self.mas {
-                    MasLaw::UniformInv(inv) => by_inv(cur[i], prev[i], f, *inv),
-                    MasLaw::UniformDiv(m) => by_div(cur[i], prev[i], f, *m),
-                    MasLaw::Inv(inv) => by_inv(cur[i], prev[i], f, inv[s]),
-                    MasLaw::Div(ms) => by_div(cur[i], prev[i], f, ms[s]),
-                };
+            // (the inertias' form chosen once, not per exception: many short strings have one
+            // per string)
+            let fixes = self.fixes(&self.mas_fix, start..end);
+            if !fixes.is_empty() {
+                let ms = (start, cur, prev, &mut *next, sf);
+                match &self.mas {
+                    MasLaw::UniformInv(inv) => {
+                        self.fix_mas(fixes, ms, |_, x, p, f| by_inv(x, p, f, *inv))
+                    }
+                    MasLaw::UniformDiv(m) => {
+                        self.fix_mas(fixes, ms, |_, x, p, f| by_div(x, p, f, *m))
+                    }
+                    MasLaw::Inv(inv) => {
+                        self.fix_mas(fixes, ms, |s, x, p, f| by_inv(x, p, f, inv[s]))
+                    }
+                    MasLaw::Div(m) => self.fix_mas(fixes, ms, |s, x, p, f| by_div(x, p, f, m[s])),
+                }
             }
+        }
+    }
+
+    /// The exceptions `fixes` (MAS slots from `start` on) of a segment with streams, recomputed
+    /// from their edges: `next[i] = update(s, cur[i], prev[i], F)` for MAS `s = start + i`.
+    #[inline(always)]
+    fn fix_mas(
+        &self,
+        fixes: &[u32],
+        (start, cur, prev, next, sf): (usize, &[f64], &[f64], &mut [f64], Forces<'_>),
+        update: impl Fn(usize, f64, f64, f64) -> f64,
+    ) {
+        for &s in fixes {
+            let (s, i) = (s as usize, s as usize - start);
+            let f = sum(
+                &self.eidx[self.eoff[s] as usize..self.eoff[s + 1] as usize],
+                sf,
+            );
+            next[i] = update(s, cur[i], prev[i], f);
         }
     }
 
@@ -2665,7 +2734,8 @@ fn chain(
     x: &[f64],
     xp: &[f64],
     lf: &mut [f64],
-    force: impl Fn(usize, f64, f64, f64, f64) -> f64,
+    params: impl LinkParams,
+    force: impl Fn((f64, f64, f64), f64, f64, f64, f64) -> f64,
 ) {
     let n = lf.len();
     assert!(x.len() == n + 1 && xp.len() == n + 1);
@@ -2693,7 +2763,10 @@ fn chain(
         let xn = *xn;
         let vn: [f64; LANES] = std::array::from_fn(|j| xn[j] - pn[j]);
         let (xb, vb) = (next(&xa, &xn), next(&va, &vn));
-        let f: [f64; LANES] = std::array::from_fn(|j| force(i + j, xa[j], va[j], xb[j], vb[j]));
+        // (whole blocks of parameters too: loaded as lanes, not one by one)
+        let [k, z, s] = params.block(i);
+        let f: [f64; LANES] =
+            std::array::from_fn(|j| force((k[j], z[j], s[j]), xa[j], va[j], xb[j], vb[j]));
         lf[i..i + LANES].copy_from_slice(&f);
         (xa, va) = (xn, vn);
         i += LANES;
@@ -2702,11 +2775,62 @@ fn chain(
         let (xn, vn) = block((i + LANES).min(n + 1));
         let (xb, vb) = (next(&xa, &xn), next(&va, &vn));
         // (the lanes past the end compute with the last link's index, and are not stored)
-        let f: [f64; LANES] =
-            std::array::from_fn(|j| force((i + j).min(n - 1), xa[j], va[j], xb[j], vb[j]));
+        let f: [f64; LANES] = std::array::from_fn(|j| {
+            force(params.at((i + j).min(n - 1)), xa[j], va[j], xb[j], vb[j])
+        });
         cpu.store(&mut lf[i..], f);
         (xa, va) = (xn, vn);
         i += LANES;
+    }
+}
+
+/// The parameters (K, Z, S) of the links of a run, as [`chain`] reads them.
+trait LinkParams: Copy {
+    /// those of the run's link `i`
+    fn at(self, i: usize) -> (f64, f64, f64);
+    /// those of links `i..i + LANES`, all of them the run's: K, Z and S as blocks of lanes
+    fn block(self, i: usize) -> [[f64; LANES]; 3];
+}
+
+/// The parameters of every link of a uniform run.
+#[derive(Clone, Copy)]
+struct Shared(f64, f64, f64);
+
+impl LinkParams for Shared {
+    #[inline(always)]
+    fn at(self, _: usize) -> (f64, f64, f64) {
+        (self.0, self.1, self.2)
+    }
+
+    #[inline(always)]
+    fn block(self, _: usize) -> [[f64; LANES]; 3] {
+        [[self.0; LANES], [self.1; LANES], [self.2; LANES]]
+    }
+}
+
+/// Each link's own parameters: `k[i]`, `z[i]`, `s[i]` (slices of the run's links).
+#[derive(Clone, Copy)]
+struct PerLink<'a> {
+    k: &'a [f64],
+    z: &'a [f64],
+    s: &'a [f64],
+}
+
+impl LinkParams for PerLink<'_> {
+    #[inline(always)]
+    fn at(self, i: usize) -> (f64, f64, f64) {
+        (self.k[i], self.z[i], self.s[i])
+    }
+
+    #[inline(always)]
+    fn block(self, i: usize) -> [[f64; LANES]; 3] {
+        // (one bound check per slice and block, so that the loads are vectors)
+        let lanes = |v: &[f64]| {
+            *v[i..]
+                .first_chunk::<LANES>()
+                .expect("a whole block of links")
+        };
+        [lanes(self.k), lanes(self.z), lanes(self.s)]
     }
 }
 
@@ -3071,6 +3195,72 @@ fn bridged(
     (out, exceptions)
 }
 
+/// Longest uniform run that [`joined`] makes part of a run with varied parameters: a loop that
+/// reads its parameters once saves a load per parameter and link, a run's set-up, loop tails and
+/// the MAS segment of its own cost tens of links (50 strings of 100 masses ran 1.4-1.7x faster
+/// joined, 20 strings of 250 at the same speed: docs/BENCHMARKS.md, thirteenth session).
+const JOIN_MAX: usize = 256;
+
+/// The run pieces (in storage order) with each two progressions of one law that continue each
+/// other (the same steps, the second's first terms where the first's would be) across at most
+/// [`GAP_MAX`] links of that law read through the index lists made one run with varied
+/// parameters, those links its exceptions (appended to `fix`, which is then sorted), when each of
+/// the two is uniform and shorter than [`JOIN_MAX`], or varied. Many short strings, each of its
+/// own stiffness, are then one loop, their ground links between them exceptions, as the rows of
+/// a membrane are (see [`bridged`]). The forces are the same, link by link: the joined run reads
+/// each link's own parameters.
+fn joined(pieces: Vec<Run>, fix: &mut Vec<u32>) -> Vec<Run> {
+    let step = |r: &Run| match r.ends {
+        Ends::Step { a0, sa, b0, sb } => Some((a0, sa, b0, sb)),
+        _ => None,
+    };
+    let short = |r: &Run| !r.uniform || r.end - r.start < JOIN_MAX;
+    let mut out: Vec<Run> = Vec::with_capacity(pieces.len());
+    // whether the last piece of `out` may be joined to the next progression: a short progression,
+    // or one made of joined ones
+    let mut open = false;
+    let mut i = 0;
+    while i < pieces.len() {
+        let next = pieces[i];
+        let law = out.last().map(|r| r.law);
+        let mut j = i;
+        let mut gap = 0;
+        while j < pieces.len()
+            && pieces[j].ends == Ends::Indexed
+            && Some(pieces[j].law) == law
+            && gap + pieces[j].end - pieces[j].start <= GAP_MAX
+        {
+            gap += pieces[j].end - pieces[j].start;
+            j += 1;
+        }
+        let continues = |prev: &Run, then: &Run| {
+            let (Some((a0, sa, b0, sb)), Some((a1, ta, b1, tb))) = (step(prev), step(then)) else {
+                return false;
+            };
+            let at = (then.start - prev.start) as u64;
+            prev.law == then.law
+                && (sa, sb) == (ta, tb)
+                && u64::from(a0) + at * u64::from(sa) == u64::from(a1)
+                && u64::from(b0) + at * u64::from(sb) == u64::from(b1)
+        };
+        match (out.last_mut(), pieces.get(j)) {
+            (Some(prev), Some(then)) if open && short(then) && continues(prev, then) => {
+                fix.extend(prev.end as u32..then.start as u32);
+                prev.end = then.end;
+                prev.uniform = false;
+                i = j + 1;
+            }
+            _ => {
+                open = step(&next).is_some() && short(&next);
+                out.push(next);
+                i += 1;
+            }
+        }
+    }
+    fix.sort_unstable();
+    out
+}
+
 /// Cuts `0..len` into `parts` contiguous ranges of about equal total `cost`.
 fn split(len: usize, parts: usize, cost: impl Fn(usize) -> u64) -> Vec<Range<usize>> {
     let total: u128 = (0..len).map(|i| u128::from(cost(i))).sum();
@@ -3104,8 +3294,10 @@ fn same_curve(a: &Curve, b: &Curve) -> bool {
 /// a group, links whose ends are the same distance apart in material storage (at least
 /// [`STEP_MIN`] of them) are sorted by their end 1, so that their ends are contiguous (the
 /// horizontal and vertical links of a membrane become two runs of unit-step progressions); the
-/// others keep their declaration order.
-fn link_order(net: &Network, slot: &[u32], n_mc: usize, bridge: bool) -> Vec<u32> {
+/// others keep their declaration order. With `by_law`, such a band holds the links of one law
+/// and distance whatever their parameters (short strings of different stiffnesses, one after
+/// the other in storage, then continue one progression, which [`joined`] makes one loop).
+fn link_order(net: &Network, slot: &[u32], n_mc: usize, bridge: bool, by_law: bool) -> Vec<u32> {
     use std::collections::HashMap;
     let nl = net.links.len();
     // parameter classes, numbered by first appearance
@@ -3157,17 +3349,31 @@ fn link_order(net: &Network, slot: &[u32], n_mc: usize, bridge: bool) -> Vec<u32
     for d in 0..nl {
         first.entry(group(d)).or_insert(d);
     }
-    let group = |d: usize| first[&group(d)];
+    let groups: Vec<usize> = (0..nl).map(|d| first[&group(d)]).collect();
+    // The group of a link's band: with `by_law`, its law's (the links of one law and offset are
+    // one band whatever their parameters, so that strings of different stiffnesses make one
+    // progression, joined across them by `joined`), else its group.
+    let mut law_first = [usize::MAX; 5];
+    for d in (0..nl).rev() {
+        law_first[law(d) as usize] = d;
+    }
+    let band_group = |d: usize| {
+        if by_law {
+            law_first[law(d) as usize]
+        } else {
+            groups[d]
+        }
+    };
     // (a foreign id sorts anywhere: `Kernel::new` refuses it right after)
     let end = |id: MatId| slot.get(id.index()).map_or(-1, |&s| i64::from(s));
     let offset = |d: usize| end(net.links[d].b) - end(net.links[d].a);
     let mut per_offset: HashMap<(usize, i64), usize> = HashMap::new();
     for d in 0..nl {
-        *per_offset.entry((group(d), offset(d))).or_default() += 1;
+        *per_offset.entry((band_group(d), offset(d))).or_default() += 1;
     }
-    let bands: Vec<(usize, i64)> = (0..nl).map(|d| (group(d), offset(d))).collect();
+    let bands: Vec<(usize, i64)> = (0..nl).map(|d| (band_group(d), offset(d))).collect();
     let in_band: Vec<bool> = bands.iter().map(|b| per_offset[b] >= STEP_MIN).collect();
-    let placed = placed_in_bands(net, slot, n_mc, &bands, &in_band, bridge);
+    let placed = placed_in_bands(net, slot, n_mc, &groups, &bands, &in_band, bridge);
     let mut order: Vec<usize> = (0..nl).collect();
     order.sort_by_key(|&d| {
         let (g, o) = bands[d];
@@ -3175,8 +3381,10 @@ fn link_order(net: &Network, slot: &[u32], n_mc: usize, bridge: bool) -> Vec<u32
         if in_band[d] {
             (g, 0u8, o, a, d)
         } else if let Some((o, key)) = placed[d] {
+            // (in the band of a link of its group, so of its law: the same band group)
             (g, 0, o, key, d)
         } else {
+            let g = groups[d];
             // by the material that sums the link's force (its mobile end, or the smaller)
             let mobile = |s: i64| s >= 0 && (s as usize) < n_mc;
             match (mobile(a), mobile(b)) {
@@ -3201,12 +3409,14 @@ fn link_order(net: &Network, slot: &[u32], n_mc: usize, bridge: bool) -> Vec<u32
 /// of `m` would have if the progression of `m'` went on. The grounds of a membrane's border
 /// (term "left" of a row's first mass, "up" of the top row's masses...) land just before or after
 /// the links of their row or column, so every mass of a row sums unit-step progressions, as in a
-/// padded stencil. `bands[d]` is the (group, end offset) of link `d`, `in_band[d]` whether it is in
-/// a band. Returns `(band offset, key)` per link (declaration index), `None` when unplaced.
+/// padded stencil. `groups[d]` is the group of link `d` (its law, and its parameters when they are
+/// common), `bands[d]` its band (band group, end offset), `in_band[d]` whether it is in a band.
+/// Returns `(band offset, key)` per link (declaration index), `None` when unplaced.
 fn placed_in_bands(
     net: &Network,
     slot: &[u32],
     n_mc: usize,
+    groups: &[usize],
     bands: &[(usize, i64)],
     in_band: &[bool],
     exclusive: bool,
@@ -3277,12 +3487,12 @@ fn placed_in_bands(
                     continue;
                 }
                 let Some((m2, d2)) = last[j] else { continue };
-                let ((g, _), (g2, o2)) = (bands[d], bands[d2]);
+                let (g2, o2) = bands[d2];
                 let at = key(d2) + m as i64 - m2 as i64;
                 if placed[d].is_none()
-                    && g == g2
+                    && groups[d] == groups[d2]
                     && m.abs_diff(m2) <= NEAR
-                    && (!exclusive || taken.insert((g, o2, at)))
+                    && (!exclusive || taken.insert((g2, o2, at)))
                 {
                     placed[d] = Some((o2, at));
                 }
@@ -3764,6 +3974,85 @@ mod tests {
         let k = Kernel::new(&string);
         assert_eq!(k.mas_segments.len(), 1, "{:?}", k.mas_segments);
         assert!(k.mas_segments[0].streams.is_some());
+    }
+
+    /// `strings` strings of `n` MAS, each declared as the language's `string` generator does (its
+    /// MAS, a left SOL and its link, the inner links, a right SOL and its link), string `s` with
+    /// the law `law(s)`; struck and observed on the first.
+    fn bank(strings: usize, n: usize, law: impl Fn(usize) -> Interaction) -> Network {
+        let mut net = Network::new();
+        for s in 0..strings {
+            let ids: Vec<MatId> = (0..n)
+                .map(|i| {
+                    let v0 = if i == n / 4 { 0.01 } else { 0.0 };
+                    net.add_material(Material::Mas {
+                        m: 1.0,
+                        x0: 0.0,
+                        v0,
+                    })
+                })
+                .collect();
+            let left = net.add_material(Material::Sol { x0: 0.0 });
+            net.add_link(law(s), left, ids[0]);
+            for w in ids.windows(2) {
+                net.add_link(law(s), w[0], w[1]);
+            }
+            let right = net.add_material(Material::Sol { x0: 0.0 });
+            net.add_link(law(s), ids[n - 1], right);
+        }
+        net.add_position_output(MatId(n as u32 / 2));
+        net
+    }
+
+    /// Short strings, each of its own stiffness: their inner links and right grounds are one
+    /// progression over all the strings (of varied parameters, the right grounds its exceptions:
+    /// see [`joined`]), and their MAS one segment (the first MAS of each string but the first an
+    /// exception), as one long string's; long strings keep their uniform loops.
+    #[test]
+    fn short_strings_of_their_own_stiffnesses_are_one_progression() {
+        let (strings, n) = (12, 40);
+        let k_of = |s: usize| 0.1 * (1.0 + s as f64 / 100.0);
+        let net = bank(strings, n, |s| Interaction::Ref {
+            k: k_of(s),
+            z: 1e-4,
+        });
+        let k = Kernel::new(&net);
+        assert!(k.grid.is_none() && !k.compact, "the gather step");
+        let runs = &k.whole.runs;
+        let steps: Vec<&Run> = runs.iter().filter(|r| r.ends != Ends::Indexed).collect();
+        assert_eq!(steps.len(), 1, "{runs:?}");
+        let run = steps[0];
+        assert!(
+            !run.uniform && run.end - run.start == strings * n - 1,
+            "{run:?}"
+        );
+        assert!(matches!(run.ends, Ends::Step { sa: 1, sb: 1, .. }));
+        let indexed = (runs.iter().filter(|r| r.ends == Ends::Indexed))
+            .map(|r| r.end - r.start)
+            .sum::<usize>();
+        assert_eq!(indexed, strings + 1, "{runs:?}");
+        assert_eq!(k.link_fix.len(), strings - 1);
+        for &l in &k.link_fix {
+            // a right ground, its K its string's
+            let (a, b, l) = (k.la[l as usize], k.lb[l as usize], l as usize);
+            assert!((a as usize + 1).is_multiple_of(n) && b as usize >= k.n_mce);
+            assert_eq!(k.lk[l].to_bits(), k_of(a as usize / n).to_bits());
+        }
+        assert_eq!(k.mas_segments.len(), 1, "{:?}", k.mas_segments);
+        assert_eq!(k.mas_segments[0].mats, 0..strings * n);
+        let firsts: Vec<u32> = (1..strings).map(|s| (s * n) as u32).collect();
+        assert_eq!(k.mas_fix, firsts);
+        // two long strings keep a uniform loop each
+        let net = bank(2, 2 * JOIN_MAX, |s| Interaction::Ref {
+            k: k_of(s),
+            z: 1e-4,
+        });
+        let k = Kernel::new(&net);
+        let steps: Vec<&Run> = (k.whole.runs.iter())
+            .filter(|r| r.ends != Ends::Indexed)
+            .collect();
+        assert_eq!(steps.len(), 2, "{:?}", k.whole.runs);
+        assert!(steps.iter().all(|r| r.uniform));
     }
 
     #[test]
@@ -4589,9 +4878,15 @@ mod tests {
             fn check<L: LinkLaw>(cpu: Avx512, (x, xp, k, z, s): Ends<'_>) {
                 let n = k.len();
                 let mut lf = vec![f64::NAN; n + 9];
-                chain(cpu, x, xp, &mut lf[..n], |i, xa, va, xb, vb| {
-                    L::force(k[i], z[i], s[i], xa, va, xb, vb)
-                });
+                let params = PerLink { k, z, s };
+                chain(
+                    cpu,
+                    x,
+                    xp,
+                    &mut lf[..n],
+                    params,
+                    |(k, z, s), xa, va, xb, vb| L::force(k, z, s, xa, va, xb, vb),
+                );
                 for i in 0..n {
                     let (va, vb) = (x[i] - xp[i], x[i + 1] - xp[i + 1]);
                     let want = L::force(k[i], z[i], s[i], x[i], va, x[i + 1], vb);

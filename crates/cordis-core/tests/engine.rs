@@ -4,7 +4,7 @@
 mod common;
 
 use common::*;
-use cordis_core::{Engine, Interaction, MatId, Material, Network, Signal};
+use cordis_core::{Curve, Engine, Interaction, MatId, Material, Network, Signal};
 
 #[test]
 fn engine_equals_reference_bit_for_bit_on_every_module_type() {
@@ -464,4 +464,56 @@ fn an_appended_network_steps_as_it_does_alone() {
         first_bit_difference(&render(&both, steps, 64), &expected),
         None
     );
+}
+
+/// The laws of the string banks: one per string `s` of stiffness `k`.
+fn bank_law(kind: usize) -> impl Fn(usize, f64) -> Interaction {
+    move |s, k| match (kind, s % 4) {
+        (0, _) => Interaction::Ref { k, z: 1e-4 * k },
+        (1, 0) => Interaction::Res { k },
+        (1, 2) => Interaction::But {
+            k,
+            z: 1e-4,
+            s: if s % 8 == 2 { 1e-3 } else { -1e-3 },
+        },
+        (1, _) => Interaction::Ref { k, z: 1e-4 },
+        (2, _) if s % 2 == 0 => Interaction::Fro { z: 1e-3 * k },
+        (2, _) => Interaction::Res { k },
+        _ => Interaction::Lnl {
+            lk: Curve::new(&[(-1.0, -k), (0.0, 0.0), (0.5, 0.6 * k)]).unwrap(),
+            lz: Curve::new(&[(-1.0, -1e-4), (1.0, 1e-4)]).unwrap(),
+        },
+    }
+}
+
+/// Banks of short strings, each of its own stiffness (whose links the engine joins into one loop
+/// over the strings, the ground links between them its exceptions), with long strings among them
+/// (which keep a loop of their own), free right ends, strings of several laws, every form of
+/// inertia and an ENF input, equal the reference at every step in every output, in blocks of any
+/// size.
+#[test]
+fn banks_of_short_strings_equal_the_reference() {
+    let lengths = [20, 33, 17, 40, 300, 25, 16, 64, 9, 50, 31, 18, 100];
+    for kind in 0..4 {
+        for inertia in 0..4 {
+            let net = string_bank(kind as u64 + 7, &lengths, inertia, bank_law(kind));
+            let steps = 1500;
+            let expected = reference(&net, steps);
+            for block in [1, 7, 1024] {
+                let got = render(&net, steps, block);
+                assert_eq!(
+                    first_bit_difference(&got, &expected),
+                    None,
+                    "laws {kind}, inertia {inertia}, block {block}"
+                );
+            }
+            let ch = net.outputs.len();
+            let moved = |c: usize| (0..steps).any(|s| expected[s * ch + c] != expected[c]);
+            // (the strings of FRO alone, plucked at rest, do not move)
+            assert!(
+                (0..ch).filter(|&c| moved(c)).count() > ch / 3,
+                "laws {kind}"
+            );
+        }
+    }
 }

@@ -476,3 +476,28 @@ fn grid_membranes_match_on_any_thread_count_and_block_size() {
         );
     }
 }
+
+/// Banks of short strings of their own stiffnesses (one loop over the strings, with exceptions:
+/// see `tests/engine.rs`) give the reference's bits on any thread count and block size.
+#[test]
+fn string_banks_match_on_any_thread_count_and_block_size() {
+    let lengths = [24, 40, 17, 33, 300, 50, 20, 28, 64, 19, 45, 30];
+    for (inertia, seed) in [(0, 3), (3, 4)] {
+        let net = string_bank(seed, &lengths, inertia, |_, k| Interaction::Ref {
+            k,
+            z: 1e-4 * k,
+        });
+        let steps = 800;
+        let expected = reference(&net, steps);
+        assert_eq!(
+            first_bit_difference(&render(&net, steps, 64), &expected),
+            None
+        );
+        check_all(
+            &net,
+            steps,
+            &expected,
+            &format!("string bank, inertia {inertia}"),
+        );
+    }
+}

@@ -679,3 +679,59 @@ pub fn grid_membrane(
     }
     net
 }
+
+/// A bank of strings of `lengths[s]` MAS each, declared as the language's `string` generator
+/// declares them (its MAS, a left SOL and its link, the inner links, a right SOL and its link):
+/// the engine joins short strings of the same law, whatever their parameters, into one loop with
+/// exceptions. String `s` has the law `law(s)` and its own stiffness; every third string's right
+/// end is free (no right SOL). Each string is plucked; the outputs read the first MAS of every
+/// string, the link of every right ground (the loop's exceptions) and a sum of both. `inertia`
+/// as in [`spring_network`].
+pub fn string_bank(
+    seed: u64,
+    lengths: &[usize],
+    inertia: u8,
+    law: impl Fn(usize, f64) -> Interaction,
+) -> Network {
+    let mut rng = Lcg(seed);
+    let mut net = Network::new();
+    let mut firsts = Vec::new();
+    let mut grounds = Vec::new();
+    for (s, &n) in lengths.iter().enumerate() {
+        let ids: Vec<MatId> = (0..n)
+            .map(|i| {
+                let m = match inertia {
+                    0 => 1.0,
+                    1 => 1.5,
+                    2 => [0.5, 1.0, 2.0, 4.0][rng.below(4)],
+                    _ => 0.5 + rng.next_f64(),
+                };
+                let x0 = if i == n / 3 { 0.01 } else { 0.0 };
+                net.add_material(Material::Mas { m, x0, v0: 0.0 })
+            })
+            .collect();
+        let k = 0.1 * (1.0 + s as f64 / 16.0);
+        let left = net.add_material(Material::Sol { x0: 0.0 });
+        net.add_link(law(s, k), left, ids[0]);
+        for w in ids.windows(2) {
+            net.add_link(law(s, k), w[0], w[1]);
+        }
+        if s % 3 != 2 {
+            let right = net.add_material(Material::Sol { x0: 0.0 });
+            grounds.push(net.add_link(law(s, k), ids[n - 1], right));
+        }
+        firsts.push(ids[0]);
+    }
+    for &m in &firsts {
+        net.add_position_output(m);
+    }
+    for &l in &grounds {
+        net.add_force_output(l);
+    }
+    net.add_sum_output(vec![
+        (0.5, Probe::Position(firsts[firsts.len() / 2])),
+        (2.0, Probe::Force(grounds[0])),
+    ]);
+    net.add_force(firsts[1], Signal::Impulse { at: 5, amp: 0.02 });
+    net
+}
