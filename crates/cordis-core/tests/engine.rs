@@ -346,19 +346,9 @@ fn spring_networks_equal_the_reference() {
         for inertia in 0..4 {
             for uniform in [true, false] {
                 let net = spring_network(seed, n, 4, inertia, uniform);
-                let steps = 1500;
-                let expected = reference(&net, steps);
-                for block in [1, 7, 1024] {
-                    let got = render(&net, steps, block);
-                    assert_eq!(
-                        first_bit_difference(&got, &expected),
-                        None,
-                        "seed {seed}, {n} MAS, inertia {inertia}, uniform {uniform}, block {block}"
-                    );
-                }
-                let ch = net.outputs.len();
-                let moved = |c: usize| (0..steps).any(|s| expected[s * ch + c] != expected[c]);
-                assert!((0..ch).filter(|&c| moved(c)).count() > ch / 2);
+                let what = format!("seed {seed}, {n} MAS, inertia {inertia}, uniform {uniform}");
+                let moved = equals_reference_in_blocks(&net, 1500, &what);
+                assert!(moved > net.outputs.len() / 2, "{what}");
             }
         }
     }
@@ -497,23 +487,26 @@ fn banks_of_short_strings_equal_the_reference() {
     for kind in 0..4 {
         for inertia in 0..4 {
             let net = string_bank(kind as u64 + 7, &lengths, inertia, bank_law(kind));
-            let steps = 1500;
-            let expected = reference(&net, steps);
-            for block in [1, 7, 1024] {
-                let got = render(&net, steps, block);
-                assert_eq!(
-                    first_bit_difference(&got, &expected),
-                    None,
-                    "laws {kind}, inertia {inertia}, block {block}"
-                );
-            }
-            let ch = net.outputs.len();
-            let moved = |c: usize| (0..steps).any(|s| expected[s * ch + c] != expected[c]);
             // (the strings of FRO alone, plucked at rest, do not move)
-            assert!(
-                (0..ch).filter(|&c| moved(c)).count() > ch / 3,
-                "laws {kind}"
-            );
+            let moved = equals_reference_in_blocks(&net, 1500, &format!("laws {kind}, {inertia}"));
+            assert!(moved > net.outputs.len() / 3, "laws {kind}");
         }
     }
+}
+
+/// Asserts that `net` renders the reference's bits over `steps` steps in blocks of 1, 7 and
+/// 1024 frames; returns how many of its outputs moved.
+fn equals_reference_in_blocks(net: &Network, steps: usize, what: &str) -> usize {
+    let expected = reference(net, steps);
+    for block in [1, 7, 1024] {
+        let got = render(net, steps, block);
+        assert_eq!(
+            first_bit_difference(&got, &expected),
+            None,
+            "{what}, block {block}"
+        );
+    }
+    let ch = net.outputs.len();
+    let moved = |c: usize| (0..steps).any(|s| expected[s * ch + c] != expected[c]);
+    (0..ch).filter(|&c| moved(c)).count()
 }

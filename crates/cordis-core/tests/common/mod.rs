@@ -302,6 +302,17 @@ pub fn first_bit_difference(a: &[f64], b: &[f64]) -> Option<usize> {
         .position(|(x, y)| x.to_bits() != y.to_bits())
 }
 
+/// A MAS inertia of kind `inertia`: 0 one, 1 one and a half, 2 a power of two drawn from 0.5 to
+/// 4, else any drawn from 0.5 to 1.5.
+fn inertia_of(rng: &mut Lcg, inertia: u8) -> f64 {
+    match inertia {
+        0 => 1.0,
+        1 => 1.5,
+        2 => [0.5, 1.0, 2.0, 4.0][rng.below(4)],
+        _ => 0.5 + rng.next_f64(),
+    }
+}
+
 /// A seeded network of springs and dampers only (RES, FRO, REF: the pull step's kind), without
 /// locality: `n` MAS each tied to about `links_per_mass` others drawn at random, two CEL, two
 /// SOL, an ENX, a link tying a MAS to itself and one between the two SOL, ENF inputs (two on one
@@ -319,12 +330,7 @@ pub fn spring_network(
     let mut net = Network::new();
     let mut ids: Vec<_> = (0..n)
         .map(|i| {
-            let m = match inertia {
-                0 => 1.0,
-                1 => 1.5,
-                2 => [0.5, 1.0, 2.0, 4.0][rng.below(4)],
-                _ => 0.5 + rng.next_f64(),
-            };
+            let m = inertia_of(&mut rng, inertia);
             let v0 = if i % 5 == 1 {
                 0.01 * (rng.next_f64() - 0.5)
             } else {
@@ -700,12 +706,7 @@ pub fn string_bank(
     for (s, &n) in lengths.iter().enumerate() {
         let ids: Vec<MatId> = (0..n)
             .map(|i| {
-                let m = match inertia {
-                    0 => 1.0,
-                    1 => 1.5,
-                    2 => [0.5, 1.0, 2.0, 4.0][rng.below(4)],
-                    _ => 0.5 + rng.next_f64(),
-                };
+                let m = inertia_of(&mut rng, inertia);
                 let x0 = if i == n / 3 { 0.01 } else { 0.0 };
                 net.add_material(Material::Mas { m, x0, v0: 0.0 })
             })
