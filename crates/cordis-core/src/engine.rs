@@ -3197,7 +3197,7 @@ fn bridged(
 
 /// Longest uniform run that [`joined`] makes part of a run with varied parameters: a loop that
 /// reads its parameters once saves a load per parameter and link, a run's set-up, loop tails and
-/// the MAS segment of its own cost tens of links (50 strings of 100 masses ran 1.4-1.7x faster
+/// the MAS segment of its own cost tens of links (50 strings of 100 masses ran 1.2-1.9x faster
 /// joined, 20 strings of 250 at the same speed: docs/BENCHMARKS.md, thirteenth session).
 const JOIN_MAX: usize = 256;
 
