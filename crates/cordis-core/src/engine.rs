@@ -447,7 +447,7 @@ struct Kernel {
     /// the grid step, when the network is a membrane it takes (see `engine/grid.rs`)
     grid: Option<Box<grid::Grid>>,
     /// the rows of the grid step of each thread (see `Engine::set_threads`)
-    grid_shares: Vec<Range<usize>>,
+    grid_shares: Vec<Vec<Range<usize>>>,
 }
 
 /// The state that stepping changes.
@@ -538,7 +538,8 @@ struct PoolSlot(Option<Threads>);
 struct Threads {
     pool: Pool,
     /// per part: the chunks of links claimed so far in this block (`[0, threads)`), then the
-    /// chunks of materials (`[threads, 2 threads)`)
+    /// chunks of materials (`[threads, 2 threads)`); the grid step's chunks of rows, per share,
+    /// in the first `threads`
     claims: Box<[Claim]>,
 }
 
@@ -953,9 +954,12 @@ impl Engine {
         };
         if parallel {
             let result = {
-                let Some(Threads { pool, .. }) = self.pool.0.as_ref() else {
+                let Some(Threads { pool, claims }) = self.pool.0.as_ref() else {
                     unreachable!("start_pool starts a pool when is_parallel")
                 };
+                for c in claims.iter() {
+                    c.0.store(0, Ordering::Relaxed); // the workers are idle: `pool.run` publishes it
+                }
                 let [p0, p1, p2] = &mut self.st.pos;
                 // The job borrows the state buffers mutably until `pool.run` returns, which is
                 // after every thread is done with them; nothing else touches them meanwhile.
@@ -963,6 +967,7 @@ impl Engine {
                     k: &self.k,
                     grid,
                     shares: &self.k.grid_shares,
+                    claims,
                     pos: [SharedBuf::new(p0), SharedBuf::new(p1), SharedBuf::new(p2)],
                     sf: SharedBuf::new(&mut self.st.sf),
                     scratch: SharedBuf::new(&mut self.st.grid),
@@ -4849,6 +4854,39 @@ mod tests {
             }
             assert!(moved, "{name}: the outputs never moved");
         }
+    }
+
+    /// On threads, the grid's rows are cut into shares of consecutive rows, one per thread, and
+    /// each share into consecutive chunks (the units the threads claim): about `CHUNK_MAS` MAS
+    /// each, at least `CHUNKS_MIN` where there are rows enough, and never an empty one but for a
+    /// thread without rows.
+    #[test]
+    fn grid_shares_are_cut_into_chunks_of_consecutive_rows() {
+        let check = |net: &Network, threads: usize, counts: &[usize]| {
+            let e = Engine::new(net);
+            let grid = e.k.grid.as_deref().expect("a grid");
+            let shares = grid.partition(threads);
+            assert_eq!(shares.len(), threads);
+            let mut next = 0;
+            for (chunks, &count) in shares.iter().zip(counts) {
+                assert_eq!(chunks.len(), count, "{shares:?}");
+                for c in chunks {
+                    assert_eq!(c.start, next, "{shares:?}");
+                    assert!(c.end > c.start || count == 1, "{shares:?}");
+                    next = c.end;
+                }
+            }
+            assert_eq!(next, grid.partition(1)[0].last().unwrap().end);
+        };
+        // 50,000 MAS on one thread: 6 chunks of about 8,192
+        check(&membrane(500, 100, |_| 1.0), 1, &[6]);
+        // 2 x 2,000 MAS: the fewest chunks, 4 each
+        check(&membrane(40, 100, |_| 1.0), 2, &[4, 4]);
+        // fewer rows than that: a row each; more threads than rows: an empty share
+        check(&membrane(5, 20, |_| 1.0), 2, &[3, 2]);
+        check(&membrane(2, 20, |_| 1.0), 3, &[1, 1, 1]);
+        // two sheets: the rows of both, one after the other
+        check(&surrounded(6, 20, 1, Surround::Pair), 2, &[4, 4]);
     }
 
     /// [`chain`] gives each link the force [`LinkLaw::force`] of its ends' positions and velocities,

@@ -66,12 +66,21 @@ use crate::lanes::{Avx512, LANES};
 use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
 
 use super::{by_div, by_inv, Forces, Kernel, Law, LinkLaw, MasLaw, Positions, RefLaw, Roles, Run};
-use super::{State, NEG};
+use super::{Claim, State, NEG};
 use crate::{Material, Network};
 
 /// Fewest columns (so that a row has at least one whole block and its tail) and rows.
 const COLS_MIN: usize = 2 * LANES;
 const ROWS_MIN: usize = 2;
+
+/// MAS per chunk of rows on threads (see [`Grid::partition`]). A chunk recomputes the links up
+/// into its first row, about half a row's work, so chunks of fewer MAS cost more; more chunks
+/// let a thread take over more of the other's rows when the other's core runs slower (on a
+/// shared host one vCPU may run 30-45 % slower than the other for a whole block).
+const CHUNK_MAS: usize = 8192;
+/// Fewest chunks per thread, where there are rows enough: so that the threads of a small
+/// membrane can help each other too (and the tests' membranes claim chunks).
+const CHUNKS_MIN: usize = 4;
 
 /// The sides of a MAS's link terms: the link to the MAS on its left, on its right, above, below.
 const LEFT: usize = 0;
@@ -350,11 +359,23 @@ impl Grid {
     }
 
     /// The rows of each of `threads` threads, in the grid's row count (the sheets' rows one
-    /// after the other): consecutive, about as many MAS each.
-    pub(super) fn partition(&self, threads: usize) -> Vec<Range<usize>> {
+    /// after the other): consecutive, about as many MAS each, and each thread's cut into chunks
+    /// of consecutive rows, the units the threads claim ([`GridJob`]): about [`CHUNK_MAS`] MAS
+    /// each, and at least [`CHUNKS_MIN`] where the rows allow.
+    pub(super) fn partition(&self, threads: usize) -> Vec<Vec<Range<usize>>> {
         let rows = self.row0[self.sheets.len()];
         let cols = |r: usize| self.sheets[self.row0.partition_point(|&r0| r0 <= r) - 1].cols;
-        super::split(rows, threads.max(1), |r| cols(r) as u64)
+        let cost = |r: usize| cols(r) as u64;
+        (super::split(rows, threads.max(1), cost).into_iter())
+            .map(|share| {
+                let mas: usize = share.clone().map(cols).sum();
+                let chunks = (mas / CHUNK_MAS).max(CHUNKS_MIN).min(share.len()).max(1);
+                let chunk = |c: usize| share.start + c;
+                (super::split(share.len(), chunks, |i| cost(chunk(i))).into_iter())
+                    .map(|r| chunk(r.start)..chunk(r.end))
+                    .collect()
+            })
+            .collect()
     }
 
     /// Each sheet that has some of `rows` (in the grid's row count), with those rows in its own.
@@ -910,27 +931,34 @@ impl Sheet {
     }
 }
 
-/// The grid step of a block on the pool's threads, thread `t` stepping the rows `shares[t]` (in
-/// the grid's row count: the sheets' rows one after the other, [`Grid::pieces`]):
+/// The grid step of a block on the pool's threads. The rows (in the grid's row count: the
+/// sheets' rows one after the other, [`Grid::pieces`]) are cut into `shares[t]`, the chunks of
+/// thread `t` ([`Grid::partition`]). In each step thread `t` claims the chunks of its own share
+/// first, then whatever is left of the others' (so a thread whose core runs slower is helped
+/// rather than waited for); `claims[q]` hands each chunk of share `q` to exactly one thread per
+/// step ([`Claim::next`]; every chunk of a step is claimed before its barrier, so the next
+/// step's are the next `shares[q].len()` values of the counter):
 ///
 /// | in a step, thread `t` reads | and writes |
 /// | --- | --- |
-/// | `pos[cur]`, `pos[prev]` | the slots of its rows in `pos[next]`, its part of `scratch` |
+/// | `pos[cur]`, `pos[prev]` | the slots of the rows of the chunks it claimed in `pos[next]`, its part of `scratch` |
 ///
 /// Thread 0 also records the outputs and steps the materials outside the sheets: it reads
 /// `pos[cur]` and `pos[prev]`, and writes `sf` (the recorded links' forces, the ENF inputs, the
 /// outside links' forces), the outside slots of `pos[next]` (no share's rows) and its frame of
 /// the output, which no other thread touches (the fixes compute their own link forces, and
-/// read no `sf`). Nothing a step reads is written in it; the shares' rows are disjoint (and the
-/// sheets' slots are, and none is outside), and so are their parts of `scratch` (`scratch_len`
-/// each); the one barrier after each step orders its writes of
-/// `pos[next]` before the next step's reads (where it is `cur`). Which thread steps a row changes
-/// no bit: every value is computed from the same operands whoever computes it (a share's first
-/// row recomputes the links up from the row above).
+/// read no `sf`). Nothing a step reads is written in it; the chunks' rows are disjoint (and the
+/// sheets' slots are, and none is outside), and so are the threads' parts of `scratch`
+/// (`scratch_len` each, used for one chunk at a time); the one barrier after each step orders
+/// its writes of `pos[next]` before the next step's reads (where it is `cur`). Which thread steps
+/// a row changes no bit: every value is computed from the same operands whoever computes it (a
+/// chunk's first row recomputes the links up from the row above).
 pub(super) struct GridJob<'a> {
     pub(super) k: &'a Kernel,
     pub(super) grid: &'a Grid,
-    pub(super) shares: &'a [Range<usize>],
+    pub(super) shares: &'a [Vec<Range<usize>>],
+    /// one counter per share, at 0 when the block starts
+    pub(super) claims: &'a [Claim],
     pub(super) pos: [SharedBuf; 3],
     pub(super) sf: SharedBuf,
     pub(super) scratch: SharedBuf,
@@ -955,16 +983,17 @@ impl GridJob<'_> {
         barrier: &SpinBarrier,
     ) -> Result<(), Poisoned> {
         let (k, grid) = (self.k, self.grid);
-        let rows = self.shares[t].clone();
+        let threads = self.shares.len();
+        assert!(t < threads && self.claims.len() >= threads);
         let len = grid.scratch_len();
         let ch = k.channels.len();
         let mut c = self.c0;
         for s in 0..self.frames {
             let r = Roles::at(c);
             // SAFETY: each access follows the table in the type's documentation: shared reads of
-            // buffers nobody writes in this step, exclusive writes to this share's slots and
-            // scratch (or, on thread 0, to `sf` and the outside slots of `pos[next]`), every
-            // slice dropped before the barrier that ends the step.
+            // buffers nobody writes in this step, exclusive writes to the slots of the chunks this
+            // thread claimed and to its scratch (or, on thread 0, to `sf` and the outside slots
+            // of `pos[next]`), every slice dropped before the barrier that ends the step.
             unsafe {
                 let state = (self.pos[r.cur].read(), self.pos[r.prev].read());
                 let n = self.n0 + s as u64;
@@ -979,9 +1008,16 @@ impl GridJob<'_> {
                     }
                 }
                 let scratch = self.scratch.write(t * len..(t + 1) * len);
-                for (sheet, rows) in grid.pieces(rows.clone()) {
-                    let next = self.pos[r.next].write(sheet.slots(&rows));
-                    sheet.step(k, n, rows, state.0, state.1, next, scratch);
+                // own chunks first, then the others' that are left
+                for q in (t..t + threads).map(|q| q % threads) {
+                    let chunks = &self.shares[q];
+                    let base = s * chunks.len();
+                    while let Some(i) = self.claims[q].next(base + chunks.len()) {
+                        for (sheet, rows) in grid.pieces(chunks[i - base].clone()) {
+                            let next = self.pos[r.next].write(sheet.slots(&rows));
+                            sheet.step(k, n, rows, state.0, state.1, next, scratch);
+                        }
+                    }
                 }
             }
             barrier.wait()?;
