@@ -3651,7 +3651,8 @@ fn signed(j: u32) -> (u32, u64) {
 /// of `sf` they write) and its material chunks (storage slots, whose next position
 /// they write in `pos[next]`). Each thread claims its own part's chunks first, then whatever is
 /// left of the others' (so a thread that is slower, for whatever reason, is helped rather than
-/// waited for); [`Claim::next`] hands each chunk to exactly one thread per step. Thread `t` also
+/// waited for); [`Claim::next`] hands each chunk to exactly one thread per step (the link chunks
+/// in their order, the material chunks last first). Thread `t` also
 /// writes the slots `nl + enf` of its part, and copies `mats` of its part into the snapshot
 /// before the first step. Per step `n`, with `cur`, `prev`, `next` the [`Roles`] of step `n`:
 ///
@@ -3754,11 +3755,14 @@ impl Job<'_> {
                     let ch = self.channels;
                     k.record(cur, &sf[..nl], &mut out[s * ch..(s + 1) * ch]);
                 }
+                // (last chunk first: the links phase went up its part, so the materials phase
+                // starts where the forces and positions it just touched are still in the cache,
+                // and ends where the next step's links phase starts)
                 for q in (t..t + threads).map(|q| q % threads) {
                     let chunks = &parts[q].mat_chunks;
                     let base = s * chunks.len();
                     while let Some(i) = self.claims[threads + q].next(base + chunks.len()) {
-                        let mats = chunks[i - base].clone();
+                        let mats = chunks[chunks.len() - 1 - (i - base)].clone();
                         let next = self.pos[r.next].write(mats.clone());
                         let seg = k.first_segment(mats.start);
                         k.materials_phase(mats, seg, n, cur, prev, next, Forces(sf));
