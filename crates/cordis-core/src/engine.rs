@@ -549,6 +549,14 @@ struct Threads {
 struct Claim(AtomicUsize);
 
 impl Claim {
+    /// Every counter back to 0, before a block (the workers are idle: `Pool::run` publishes the
+    /// stores to them with the job).
+    fn reset(claims: &[Claim]) {
+        for c in claims {
+            c.0.store(0, Ordering::Relaxed);
+        }
+    }
+
     /// The next chunk `i < limit` of this counter, each to exactly one caller (a unique
     /// compare-and-swap from `i` to `i + 1`); `None` once they are all taken. The counter never
     /// goes beyond `limit`, so the next step's chunks are `limit..limit + chunks`.
@@ -828,9 +836,7 @@ impl Engine {
             let Some(Threads { pool, claims }) = self.pool.0.as_ref() else {
                 unreachable!("start_pool starts a pool when is_parallel")
             };
-            for c in claims.iter() {
-                c.0.store(0, Ordering::Relaxed); // the workers are idle: `pool.run` publishes it
-            }
+            Claim::reset(claims);
             let [p0, p1, p2] = &mut self.st.pos;
             let [s0, s1] = &mut self.st.snap;
             // The job borrows the state buffers mutably until `pool.run` returns, which is after
@@ -957,9 +963,7 @@ impl Engine {
                 let Some(Threads { pool, claims }) = self.pool.0.as_ref() else {
                     unreachable!("start_pool starts a pool when is_parallel")
                 };
-                for c in claims.iter() {
-                    c.0.store(0, Ordering::Relaxed); // the workers are idle: `pool.run` publishes it
-                }
+                Claim::reset(claims);
                 let [p0, p1, p2] = &mut self.st.pos;
                 // The job borrows the state buffers mutably until `pool.run` returns, which is
                 // after every thread is done with them; nothing else touches them meanwhile.
