@@ -3164,6 +3164,15 @@ fn stretches(
 /// time rather than cutting the loop (see [`bridged`]).
 const GAP_MAX: usize = 2;
 
+/// Whether the columns `then`, `(first value, step)` each, starting `at` items after `first`,
+/// continue them: the same steps, and each first value where `first`'s column would be then
+/// ([`bridged`] and [`joined`] join only such progressions).
+fn progression_continues(first: &[(u32, u32)], then: &[(u32, u32)], at: u64) -> bool {
+    first.len() == then.len()
+        && (first.iter().zip(then))
+            .all(|(&(a, s), &(b, t))| s == t && u64::from(a) + at * u64::from(s) == u64::from(b))
+}
+
 /// The pieces of [`progressions`] with each two progressions that continue each other (the same
 /// steps, and the second's first values where the first's would be) across at most [`GAP_MAX`]
 /// items without progression made one, those items its exceptions; returns the pieces and the
@@ -3185,12 +3194,7 @@ fn bridged(
             let (Some((r, Some(st))), (rb, Some(sb))) = (out.last(), next) else {
                 return false;
             };
-            let at = (rb.start - r.start) as u64;
-            gap.len() <= GAP_MAX
-                && st.len() == sb.len()
-                && st.iter().zip(sb).all(|(&(a, s), &(b, t))| {
-                    s == t && u64::from(a) + at * u64::from(s) == u64::from(b)
-                })
+            gap.len() <= GAP_MAX && progression_continues(st, sb, (rb.start - r.start) as u64)
         };
         match piece {
             (gap, None) if rest.peek().is_some_and(|next| continues(&gap, next)) => {
@@ -3248,9 +3252,7 @@ fn joined(pieces: Vec<Run>, fix: &mut Vec<u32>) -> Vec<Run> {
             };
             let at = (then.start - prev.start) as u64;
             prev.law == then.law
-                && (sa, sb) == (ta, tb)
-                && u64::from(a0) + at * u64::from(sa) == u64::from(a1)
-                && u64::from(b0) + at * u64::from(sb) == u64::from(b1)
+                && progression_continues(&[(a0, sa), (b0, sb)], &[(a1, ta), (b1, tb)], at)
         };
         match (out.last_mut(), pieces.get(j)) {
             (Some(prev), Some(then)) if open && short(then) && continues(prev, then) => {
