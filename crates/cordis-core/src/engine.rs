@@ -443,7 +443,7 @@ struct Kernel {
     /// the pull step, when the network takes it (see [`Kernel::new`] and `engine/pull.rs`)
     pull: Option<Box<pull::Pull>>,
     /// one share of the pull step per thread (see `Engine::set_threads`)
-    pull_shares: Vec<pull::Share>,
+    pull_shares: Vec<Vec<pull::Share>>,
     /// the grid step, when the network is a membrane it takes (see `engine/grid.rs`)
     grid: Option<Box<grid::Grid>>,
     /// the rows of the grid step of each thread (see `Engine::set_threads`)
@@ -538,8 +538,8 @@ struct PoolSlot(Option<Threads>);
 struct Threads {
     pool: Pool,
     /// per part: the chunks of links claimed so far in this block (`[0, threads)`), then the
-    /// chunks of materials (`[threads, 2 threads)`); the grid step's chunks of rows, per share,
-    /// in the first `threads`
+    /// chunks of materials (`[threads, 2 threads)`); the grid step's chunks of rows, or the pull
+    /// step's chunks of groups, per share, in the first `threads`
     claims: Box<[Claim]>,
 }
 
@@ -910,9 +910,10 @@ impl Engine {
         pull.prepare(&self.k, &mut self.st);
         let (n0, c0) = (self.st.n, self.st.c);
         let result = {
-            let Some(Threads { pool, .. }) = self.pool.0.as_ref() else {
+            let Some(Threads { pool, claims }) = self.pool.0.as_ref() else {
                 unreachable!("start_pool starts a pool when is_parallel")
             };
+            Claim::reset(claims);
             let [p0, p1, p2] = &mut self.st.pos;
             let [q0, q1] = &mut self.st.pairs;
             // The job borrows the state buffers mutably until `pool.run` returns, which is after
@@ -921,6 +922,7 @@ impl Engine {
                 k: &self.k,
                 pull,
                 shares: &self.k.pull_shares,
+                claims,
                 pos: [SharedBuf::new(p0), SharedBuf::new(p1), SharedBuf::new(p2)],
                 pairs: [
                     SharedBuf::new(q0.as_flattened_mut()),
@@ -1192,7 +1194,7 @@ impl Kernel {
     }
 
     /// The shares of the pull step for `threads` threads (none without a pull step).
-    fn pull_partition(&self, threads: usize) -> Vec<pull::Share> {
+    fn pull_partition(&self, threads: usize) -> Vec<Vec<pull::Share>> {
         (self.pull.as_ref()).map_or_else(Vec::new, |p| p.partition(self, threads))
     }
 
@@ -4897,6 +4899,49 @@ mod tests {
         check(&membrane(2, 20, |_| 1.0), 3, &[1, 1, 1]);
         // two sheets: the rows of both, one after the other
         check(&surrounded(6, 20, 1, Surround::Pair), 2, &[4, 4]);
+    }
+
+    /// The pull step's shares are cut into chunks of consecutive groups that cover every group
+    /// once, in storage order, each chunk's slots those of its groups' MAS; the last chunk of the
+    /// last share also has the CEL and ENX.
+    #[test]
+    fn pull_shares_are_cut_into_chunks_of_consecutive_groups() {
+        if Avx512::detect().is_none() {
+            return; // (no pull step without AVX-512)
+        }
+        let check = |n: usize, threads: usize, counts: &[usize]| {
+            let e = Engine::new(&springs(1, n, None));
+            let (k, pull) = (&e.k, e.k.pull.as_deref().expect("a pull step"));
+            let shares = pull.partition(k, threads);
+            assert_eq!(shares.len(), threads);
+            let (mut group, mut slot) = (0, 0);
+            for (t, (chunks, &count)) in shares.iter().zip(counts).enumerate() {
+                assert_eq!(
+                    chunks.len(),
+                    count,
+                    "{n} MAS, {threads} threads: {shares:?}"
+                );
+                for (c, chunk) in chunks.iter().enumerate() {
+                    assert_eq!(chunk.groups.start, group, "{shares:?}");
+                    assert_eq!(chunk.slots.start, slot, "{shares:?}");
+                    // (a chunk may have no group where the costs are uneven: a claim for
+                    // nothing, or for the CEL and ENX alone)
+                    let mas = (8 * chunk.groups.end).min(k.n_mas);
+                    let last = t + 1 == threads && c + 1 == count;
+                    assert_eq!(chunk.slots.end, if last { k.n_mce } else { mas });
+                    (group, slot) = (chunk.groups.end, mas);
+                }
+            }
+            assert_eq!(8 * group, k.n_mas.next_multiple_of(8));
+        };
+        // 40,000 MAS on one thread: 9 chunks of about 4,096
+        check(40_000, 1, &[9]);
+        // 2 x 2,000 MAS: the fewest chunks, 4 each
+        check(4_000, 2, &[4, 4]);
+        // 5 groups: still 4; 2 groups: a group each; more threads than groups: an empty share
+        check(40, 1, &[4]);
+        check(16, 1, &[2]);
+        check(16, 3, &[1, 1, 1]);
     }
 
     /// [`chain`] gives each link the force [`LinkLaw::force`] of its ends' positions and velocities,

@@ -46,7 +46,7 @@ use std::ops::Range;
 
 use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
 
-use super::{Kernel, Law, MasLaw, Roles, Run, State, NEG};
+use super::{Claim, Kernel, Law, MasLaw, Roles, Run, State, NEG};
 use crate::lanes::Avx512;
 
 /// MAS per group: the lanes of one AVX-512 vector.
@@ -55,6 +55,14 @@ const LANES: usize = 8;
 /// Fewest MAS for the pull step (below, one group would hold every MAS, and the compact step is
 /// as fast).
 pub(super) const PULL_MIN: usize = 2 * LANES;
+
+/// MAS per chunk of groups on threads (see [`Pull::partition`]): a few hundred microseconds of
+/// work on a scattered network, against a claim's tens of nanoseconds; more chunks let a thread
+/// take over more of the other's groups when the other's core runs slower.
+const CHUNK_MAS: usize = 4096;
+/// Fewest chunks per thread, where there are groups enough (so that the tests' networks claim
+/// chunks too).
+const CHUNKS_MIN: usize = 4;
 
 /// Term `r` of the eight lanes of a group.
 #[derive(Clone, Copy, Debug)]
@@ -67,8 +75,8 @@ struct Row {
     z: u8,
 }
 
-/// The work of one thread in a step: the MAS of `groups`, and the CEL and ENX when `slots`
-/// (the storage slots whose `x(n+1)` it writes) reach past the MAS.
+/// A piece of the work of a step: the MAS of `groups`, and the CEL and ENX when `slots` (the
+/// storage slots whose `x(n+1)` it writes) reach past the MAS.
 #[derive(Clone, Debug)]
 pub(super) struct Share {
     pub(super) groups: Range<usize>,
@@ -208,20 +216,36 @@ impl Pull {
         Some(p)
     }
 
-    /// Cuts the work of a step into `threads` shares of about equal cost (consecutive groups;
-    /// the last share also has the CEL and ENX).
-    pub(super) fn partition(&self, k: &Kernel, threads: usize) -> Vec<Share> {
+    /// Cuts the work of a step into `threads` shares of about equal cost (consecutive groups),
+    /// and each share into chunks of consecutive groups, the units the threads claim
+    /// ([`PullJob`]): about [`CHUNK_MAS`] MAS each, at least [`CHUNKS_MIN`] where the groups
+    /// allow. The last chunk of the last share also has the CEL and ENX.
+    pub(super) fn partition(&self, k: &Kernel, threads: usize) -> Vec<Vec<Share>> {
         let groups = self.bounds.len() - 1;
         let cost = |g: usize| u64::from(self.bounds[g + 1] - self.bounds[g]) + 1;
-        let ranges = super::split(groups, threads.max(1), cost);
-        let last = ranges.len() - 1;
-        (ranges.into_iter().enumerate())
+        let shares = super::split(groups, threads.max(1), cost);
+        let last = shares.len() - 1;
+        let share = |g: Range<usize>, others: bool| {
+            let mas = (LANES * g.start).min(k.n_mas)..(LANES * g.end).min(k.n_mas);
+            let end = if others { k.n_mce } else { mas.end };
+            Share {
+                groups: g,
+                slots: mas.start..end,
+            }
+        };
+        (shares.into_iter().enumerate())
             .map(|(t, g)| {
-                let mas = (LANES * g.start).min(k.n_mas)..(LANES * g.end).min(k.n_mas);
-                Share {
-                    groups: g,
-                    slots: mas.start..if t == last { k.n_mce } else { mas.end },
-                }
+                let chunks = (LANES * g.len() / CHUNK_MAS)
+                    .max(CHUNKS_MIN)
+                    .min(g.len())
+                    .max(1);
+                let pieces = super::split(g.len(), chunks, |i| cost(g.start + i));
+                let lastc = pieces.len() - 1;
+                (pieces.into_iter().enumerate())
+                    .map(|(c, r)| {
+                        share(g.start + r.start..g.start + r.end, t == last && c == lastc)
+                    })
+                    .collect()
             })
             .collect()
     }
@@ -605,17 +629,22 @@ unsafe fn pairs(
 
 /// One block of the pull step on the pool's threads (see `parallel.rs` for the discipline).
 ///
-/// Thread `t` steps share `t` of [`Pull::partition`]. Per step `n`, with `cur`, `prev`, `next`
-/// the [`Roles`] of step `n`, and `pc`, `pn` the pair buffers of steps `n` and `n + 1`
-/// (`pairs[s % 2]` and the other, `s` counting the block's steps):
+/// The work is cut into `shares[t]`, the chunks of thread `t` ([`Pull::partition`]). In each
+/// step thread `t` claims the chunks of its own share first, then whatever is left of the
+/// others' (so a thread whose core runs slower is helped rather than waited for); `claims[q]`
+/// hands each chunk of share `q` to exactly one thread per step ([`Claim::next`]; every chunk of
+/// a step is claimed before its barrier, so the next step's are the next `shares[q].len()`
+/// values of the counter). Per step `n`, with `cur`, `prev`, `next` the [`Roles`] of step `n`,
+/// and `pc`, `pn` the pair buffers of steps `n` and `n + 1` (`pairs[s % 2]` and the other, `s`
+/// counting the block's steps):
 ///
 /// | reads (everyone) | writes (thread `t` only) |
 /// | --- | --- |
-/// | `pos[cur]`, `pos[prev]`, `pc` | share `t`'s slots of `pos[next]` and of `pn` |
+/// | `pos[cur]`, `pos[prev]`, `pc` | the slots of the chunks it claimed in `pos[next]` and in `pn` |
 ///
 /// Thread 0 also records the outputs: it reads `pos[cur]` and `pos[prev]`, and writes `sf` (the
 /// recorded links' forces) and its frame of the output, which no other thread touches. Nothing
-/// a step reads is written in it, and the shares' slots are disjoint (consecutive ranges of the
+/// a step reads is written in it, and the chunks' slots are disjoint (consecutive ranges of the
 /// storage slots, from `Pull::partition`). The one barrier after each step orders its writes of
 /// `pos[next]` and `pn` before the next step's reads (where they are `cur` and `pc`); the pairs of
 /// the first step were set before the job was published (`Pool::run` releases them to the
@@ -626,7 +655,9 @@ unsafe fn pairs(
 pub(super) struct PullJob<'a> {
     pub(super) k: &'a Kernel,
     pub(super) pull: &'a Pull,
-    pub(super) shares: &'a [Share],
+    pub(super) shares: &'a [Vec<Share>],
+    /// one counter per share, at 0 when the block starts
+    pub(super) claims: &'a [Claim],
     pub(super) pos: [SharedBuf; 3],
     /// the two pair buffers, as `f64` (pair `s` is items `2 s`, `2 s + 1`)
     pub(super) pairs: [SharedBuf; 2],
@@ -652,16 +683,17 @@ impl PullJob<'_> {
         barrier: &SpinBarrier,
     ) -> Result<(), Poisoned> {
         let k = self.k;
-        let share = &self.shares[t];
-        let slots = share.slots.clone();
+        let threads = self.shares.len();
+        assert!(t < threads && self.claims.len() >= threads);
         let ch = k.channels.len();
         let mut c = self.c0;
         for s in 0..self.frames {
             let r = Roles::at(c);
             let (pc, pn) = (&self.pairs[s % 2], &self.pairs[1 - s % 2]);
             // SAFETY: each access follows the table in the type's documentation: shared reads of
-            // buffers nobody writes in this step, exclusive writes to this share's slots (or, on
-            // thread 0, to `sf`), every slice dropped before the barrier that ends the step.
+            // buffers nobody writes in this step, exclusive writes to the slots of the chunks
+            // this thread claimed (or, on thread 0, to `sf`), every slice dropped before the
+            // barrier that ends the step.
             unsafe {
                 let (cur, prev) = (self.pos[r.cur].read(), self.pos[r.prev].read());
                 if let Some(out) = out.as_deref_mut() {
@@ -670,13 +702,22 @@ impl PullJob<'_> {
                         .record(k, cur, prev, sf, &mut out[s * ch..(s + 1) * ch]);
                 }
                 let pc = pc.read().as_chunks::<2>().0;
-                let next = self.pos[r.next].write(slots.clone());
-                let pn = pn
-                    .write(2 * slots.start..2 * slots.end)
-                    .as_chunks_mut::<2>()
-                    .0;
                 let n = self.n0 + s as u64;
-                self.pull.step(k, n, share, cur, prev, pc, next, pn);
+                // own chunks first, then the others' that are left
+                for q in (t..t + threads).map(|q| q % threads) {
+                    let chunks = &self.shares[q];
+                    let base = s * chunks.len();
+                    while let Some(i) = self.claims[q].next(base + chunks.len()) {
+                        let chunk = &chunks[i - base];
+                        let slots = chunk.slots.clone();
+                        let next = self.pos[r.next].write(slots.clone());
+                        let pn = pn
+                            .write(2 * slots.start..2 * slots.end)
+                            .as_chunks_mut::<2>()
+                            .0;
+                        self.pull.step(k, n, chunk, cur, prev, pc, next, pn);
+                    }
+                }
             }
             barrier.wait()?;
             c = r.next;
