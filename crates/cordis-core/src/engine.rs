@@ -557,28 +557,6 @@ impl Claim {
         }
     }
 
-    /// Calls `take(q, j)` for each chunk `j` of share `q` that thread `t` claims in step `s` (the
-    /// block's count), one at a time: its own share's first, then what is left of the others'
-    /// (so a thread whose core runs slower is helped rather than waited for). `claims[q]` counts
-    /// share `q`'s chunks, `chunks(q)` per step; every chunk of a step is claimed before its
-    /// barrier, so the next step's are the next `chunks(q)` values of the counter.
-    #[inline(always)]
-    fn each(
-        claims: &[Claim],
-        t: usize,
-        s: usize,
-        chunks: impl Fn(usize) -> usize,
-        mut take: impl FnMut(usize, usize),
-    ) {
-        let threads = claims.len();
-        for q in (t..t + threads).map(|q| q % threads) {
-            let (len, base) = (chunks(q), s * chunks(q));
-            while let Some(i) = claims[q].next(base + len) {
-                take(q, i - base);
-            }
-        }
-    }
-
     /// The next chunk `i < limit` of this counter, each to exactly one caller (a unique
     /// compare-and-swap from `i` to `i + 1`); `None` once they are all taken. The counter never
     /// goes beyond `limit`, so the next step's chunks are `limit..limit + chunks`.
@@ -3759,13 +3737,17 @@ impl Job<'_> {
             unsafe {
                 let (cur, prev) = (self.pos[r.cur].read(), self.pos[r.prev].read());
                 let state = Positions::new(k, cur, prev);
-                let chunks = |q: usize| parts[q].link_chunks.len();
-                Claim::each(&self.claims[..threads], t, s, chunks, |q, j| {
-                    for run in &parts[q].runs[parts[q].link_chunks[j].clone()] {
-                        let lf = self.sf.write(run.start..run.end);
-                        k.run_links(run, &state, lf);
+                // own chunks first, then the others' that are left
+                for q in (t..t + threads).map(|q| q % threads) {
+                    let chunks = &parts[q].link_chunks;
+                    let base = s * chunks.len();
+                    while let Some(i) = self.claims[q].next(base + chunks.len()) {
+                        for run in &parts[q].runs[chunks[i - base].clone()] {
+                            let lf = self.sf.write(run.start..run.end);
+                            k.run_links(run, &state, lf);
+                        }
                     }
-                });
+                }
                 let ef = self.sf.write(nl + part.enf.start..nl + part.enf.end);
                 k.inputs(part.enf.clone(), n, ef);
             }
@@ -3784,15 +3766,16 @@ impl Job<'_> {
                 // (last chunk first: the links phase went up its part, so the materials phase
                 // starts where the forces and positions it just touched are still in the cache,
                 // and ends where the next step's links phase starts)
-                let claims = &self.claims[threads..2 * threads];
-                let chunks = |q: usize| parts[q].mat_chunks.len();
-                Claim::each(claims, t, s, chunks, |q, j| {
-                    let own = &parts[q].mat_chunks;
-                    let mats = own[own.len() - 1 - j].clone();
-                    let next = self.pos[r.next].write(mats.clone());
-                    let seg = k.first_segment(mats.start);
-                    k.materials_phase(mats, seg, n, cur, prev, next, Forces(sf));
-                });
+                for q in (t..t + threads).map(|q| q % threads) {
+                    let chunks = &parts[q].mat_chunks;
+                    let base = s * chunks.len();
+                    while let Some(i) = self.claims[threads + q].next(base + chunks.len()) {
+                        let mats = chunks[chunks.len() - 1 - (i - base)].clone();
+                        let next = self.pos[r.next].write(mats.clone());
+                        let seg = k.first_segment(mats.start);
+                        k.materials_phase(mats, seg, n, cur, prev, next, Forces(sf));
+                    }
+                }
             }
             barrier.wait()?;
             r = Roles::at(r.next);

@@ -1008,13 +1008,17 @@ impl GridJob<'_> {
                     }
                 }
                 let scratch = self.scratch.write(t * len..(t + 1) * len);
-                let chunks = |q: usize| self.shares[q].len();
-                Claim::each(&self.claims[..threads], t, s, chunks, |q, j| {
-                    for (sheet, rows) in grid.pieces(self.shares[q][j].clone()) {
-                        let next = self.pos[r.next].write(sheet.slots(&rows));
-                        sheet.step(k, n, rows, state.0, state.1, next, scratch);
+                // own chunks first, then the others' that are left
+                for q in (t..t + threads).map(|q| q % threads) {
+                    let chunks = &self.shares[q];
+                    let base = s * chunks.len();
+                    while let Some(i) = self.claims[q].next(base + chunks.len()) {
+                        for (sheet, rows) in grid.pieces(chunks[i - base].clone()) {
+                            let next = self.pos[r.next].write(sheet.slots(&rows));
+                            sheet.step(k, n, rows, state.0, state.1, next, scratch);
+                        }
                     }
-                });
+                }
             }
             barrier.wait()?;
             c = r.next;

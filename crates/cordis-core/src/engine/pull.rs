@@ -703,17 +703,21 @@ impl PullJob<'_> {
                 }
                 let pc = pc.read().as_chunks::<2>().0;
                 let n = self.n0 + s as u64;
-                let chunks = |q: usize| self.shares[q].len();
-                Claim::each(&self.claims[..threads], t, s, chunks, |q, j| {
-                    let chunk = &self.shares[q][j];
-                    let slots = chunk.slots.clone();
-                    let next = self.pos[r.next].write(slots.clone());
-                    let pn = pn
-                        .write(2 * slots.start..2 * slots.end)
-                        .as_chunks_mut::<2>()
-                        .0;
-                    self.pull.step(k, n, chunk, cur, prev, pc, next, pn);
-                });
+                // own chunks first, then the others' that are left
+                for q in (t..t + threads).map(|q| q % threads) {
+                    let chunks = &self.shares[q];
+                    let base = s * chunks.len();
+                    while let Some(i) = self.claims[q].next(base + chunks.len()) {
+                        let chunk = &chunks[i - base];
+                        let slots = chunk.slots.clone();
+                        let next = self.pos[r.next].write(slots.clone());
+                        let pn = pn
+                            .write(2 * slots.start..2 * slots.end)
+                            .as_chunks_mut::<2>()
+                            .0;
+                        self.pull.step(k, n, chunk, cur, prev, pc, next, pn);
+                    }
+                }
             }
             barrier.wait()?;
             c = r.next;
