@@ -429,7 +429,9 @@ impl Pull {
         }
     }
 
-    /// The MAS, group by group; `params(rows)` are the `(K, Z)` of `rows`, row by row.
+    /// The MAS, group by group; `params(rows)` are the `(K, Z)` of `rows`, row by row. The
+    /// loop is compiled for the kernel's inertias, and for whole groups apart from the last, the
+    /// only one that may be partial.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
     #[allow(clippy::too_many_arguments)] // the step's buffers
@@ -445,10 +447,65 @@ impl Pull {
         next: &mut [f64],
         pn: &mut [[f64; 2]],
     ) {
+        assert!(next.len() == (LANES * gr.end).min(k.n_mas) - (LANES * gr.start).min(k.n_mas));
+        assert!(pn.len() == next.len() && gr.end < self.bounds.len());
+        // the groups of eight MAS, and the last (partial) one if `gr` has it
+        let whole = gr.start..gr.end.min(k.n_mas / LANES).max(gr.start);
+        let at = LANES * whole.len();
+        let (next, next_part) = next.split_at_mut(at);
+        let (pn, pn_part) = pn.split_at_mut(at);
+        let part = whole.end..gr.end;
+        let none: &[f64] = &[];
+        macro_rules! both {
+            ($div:literal, $per:literal, $m:expr, $ms:expr) => {{
+                self.groups_as::<_, $div, $per, true>(
+                    k, n, whole, prev, pc, &params, $m, $ms, next, pn,
+                );
+                self.groups_as::<_, $div, $per, false>(
+                    k, n, part, prev, pc, &params, $m, $ms, next_part, pn_part,
+                );
+            }};
+        }
+        match &k.mas {
+            MasLaw::UniformInv(inv) => both!(false, false, inv, none),
+            MasLaw::UniformDiv(m) => both!(true, false, m, none),
+            MasLaw::Inv(inv) => both!(false, true, &0.0, inv),
+            MasLaw::Div(m) => both!(true, true, &0.0, m),
+        }
+    }
+
+    /// [`Pull::groups`] for the groups `gr`, all whole (`WHOLE`) or the last, partial, one;
+    /// `x(n+1) = 2 x(n) - x(n-1) + F(n) / M`, dividing (`DIV`) or multiplying by `1 / M`, `m` for
+    /// every MAS or (`PER_MAS`) each MAS's own in `ms` (by storage slot).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    #[allow(clippy::too_many_arguments)] // the step's buffers
+    #[inline]
+    fn groups_as<
+        'p,
+        I: Iterator<Item = &'p [[f64; LANES]; 2]>,
+        const DIV: bool,
+        const PER_MAS: bool,
+        const WHOLE: bool,
+    >(
+        &self,
+        k: &Kernel,
+        n: u64,
+        gr: Range<usize>,
+        prev: &[f64],
+        pc: &[[f64; 2]],
+        params: &impl Fn(Range<usize>) -> I,
+        m: &f64,
+        ms: &[f64],
+        next: &mut [f64],
+        pn: &mut [[f64; 2]],
+    ) {
         // `next` and `pn` are the slots of the MAS of groups `gr`, from `o`
         let o = LANES * gr.start;
         assert!(next.len() == (LANES * gr.end).min(k.n_mas) - o.min(k.n_mas));
         assert!(pn.len() == next.len() && gr.end < self.bounds.len());
+        assert!(!PER_MAS || ms.len() == k.n_mas);
+        assert!(WHOLE || gr.len() <= 1);
         let base = pc.as_ptr().cast::<u8>();
         // (lanes of the pairs `[x0 v0 x1 v1 x2 v2 x3 v3]`, `[x4 v4 .. x7 v7]`, and back)
         let low = _mm512_set_epi64(11, 3, 10, 2, 9, 1, 8, 0);
@@ -461,7 +518,11 @@ impl Pull {
             .zip(self.enf_bounds[gr.start..=gr.end].windows(2));
         for (g, (rows, inputs)) in (gr.start..).zip(groups) {
             let s0 = LANES * g;
-            let lanes = (n_mas - s0).min(LANES);
+            let lanes = if WHOLE {
+                LANES
+            } else {
+                (n_mas - s0).min(LANES)
+            };
             let mask = if lanes == LANES {
                 0xff
             } else {
@@ -524,19 +585,17 @@ impl Pull {
             };
             // 2 x(n) - x(n-1) + F(n) / M, as `by_inv` and `by_div` (a uniform inertia is
             // broadcast here, through `black_box`, for the same reason as `x(n-1)`)
-            let acc = match &k.mas {
-                MasLaw::UniformInv(inv) => _mm512_mul_pd(f, _mm512_set1_pd(*black_box(inv))),
-                MasLaw::UniformDiv(m) => _mm512_div_pd(f, _mm512_set1_pd(*black_box(m))),
-                // SAFETY: lanes `0..lanes` are MAS `s0..`, within the `n_mas` inertias.
-                MasLaw::Inv(inv) => unsafe {
-                    assert!(inv.len() == n_mas);
-                    _mm512_mul_pd(f, _mm512_maskz_loadu_pd(mask, inv.as_ptr().add(s0)))
-                },
-                // SAFETY: as above.
-                MasLaw::Div(m) => unsafe {
-                    assert!(m.len() == n_mas);
-                    _mm512_div_pd(f, _mm512_maskz_loadu_pd(mask, m.as_ptr().add(s0)))
-                },
+            let m = if PER_MAS {
+                // SAFETY: lanes `0..lanes` are MAS `s0..`, within the `n_mas` inertias
+                // (asserted above).
+                unsafe { _mm512_maskz_loadu_pd(mask, ms.as_ptr().add(s0)) }
+            } else {
+                _mm512_set1_pd(*black_box(m))
+            };
+            let acc = if DIV {
+                _mm512_div_pd(f, m)
+            } else {
+                _mm512_mul_pd(f, m)
             };
             let xn = _mm512_add_pd(_mm512_sub_pd(_mm512_mul_pd(two, x), xp), acc);
             let vn = _mm512_sub_pd(xn, x);
@@ -609,10 +668,15 @@ unsafe fn pairs(
     xs: __m512i,
     vs: __m512i,
 ) -> (__m512d, __m512d) {
+    // (two offsets per 8-byte load, the first in the low half on x86-64: four loads fewer per
+    // row, in a loop bound by its loads; measured in docs/BENCHMARKS.md, sixteenth session)
+    // SAFETY: `i < 4`: bytes `8 i..8 i + 8` of the 32 bytes of `at`, read unaligned.
+    let w = |i: usize| unsafe { at.as_ptr().cast::<u64>().add(i).read_unaligned() };
     // SAFETY: each 16-byte load reads one pair of the buffer (the caller's promise).
-    let p = |i: usize| unsafe { _mm_loadu_pd(base.add(at[i] as usize).cast::<f64>()) };
-    let (q0, q1, q2, q3) = (p(0), p(1), p(2), p(3));
-    let (q4, q5, q6, q7) = (p(4), p(5), p(6), p(7));
+    let p = |o: u64| unsafe { _mm_loadu_pd(base.add(o as u32 as usize).cast::<f64>()) };
+    let (w0, w1, w2, w3) = (w(0), w(1), w(2), w(3));
+    let (q0, q1, q2, q3) = (p(w0), p(w0 >> 32), p(w1), p(w1 >> 32));
+    let (q4, q5, q6, q7) = (p(w2), p(w2 >> 32), p(w3), p(w3 >> 32));
     let a = _mm512_insertf64x4::<1>(
         _mm512_castpd256_pd512(_mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(q0), q1)),
         _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(q2), q3),
