@@ -574,6 +574,62 @@ impl Claim {
         }
         None
     }
+
+    /// The chunks thread `t` claims in step `s` (counting the block's steps), one at a time, as
+    /// `(q, j)`: chunk `j` of share `q`. Its own share's first, then what is left of the others'
+    /// (so a thread whose core runs slower is helped rather than waited for); `claims[q]` counts
+    /// share `q`'s chunks, `chunks(q)` per step, and every chunk of a step is claimed before its
+    /// barrier, so the next step's are the next `chunks(q)` values of the counter.
+    ///
+    /// An iterator, not a function that calls a closure per chunk: the loop's body stays in the
+    /// caller and is compiled with its target features. A closure is not (rust-lang/rust#58279):
+    /// the gather step's loops inlined into one ran without vector instructions, at half the
+    /// speed (docs/BENCHMARKS.md, sixteenth session).
+    #[inline(always)]
+    fn claimed<F: Fn(usize) -> usize>(
+        claims: &[Claim],
+        t: usize,
+        s: usize,
+        chunks: F,
+    ) -> Claimed<'_, F> {
+        assert!(t < claims.len());
+        Claimed {
+            claims,
+            t,
+            s,
+            chunks,
+            k: 0,
+        }
+    }
+}
+
+/// The chunks a thread claims in a step: see [`Claim::claimed`].
+struct Claimed<'c, F> {
+    claims: &'c [Claim],
+    t: usize,
+    s: usize,
+    chunks: F,
+    /// the share whose chunks are being claimed is `(t + k) % claims.len()`
+    k: usize,
+}
+
+impl<F: Fn(usize) -> usize> Iterator for Claimed<'_, F> {
+    type Item = (usize, usize);
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<(usize, usize)> {
+        let shares = self.claims.len();
+        while self.k < shares {
+            let q = (self.t + self.k) % shares;
+            let len = (self.chunks)(q);
+            let base = self.s * len;
+            if let Some(i) = self.claims[q].next(base + len) {
+                return Some((q, i - base));
+            }
+            self.k += 1;
+        }
+        None
+    }
 }
 
 impl Clone for PoolSlot {
@@ -3737,15 +3793,11 @@ impl Job<'_> {
             unsafe {
                 let (cur, prev) = (self.pos[r.cur].read(), self.pos[r.prev].read());
                 let state = Positions::new(k, cur, prev);
-                // own chunks first, then the others' that are left
-                for q in (t..t + threads).map(|q| q % threads) {
-                    let chunks = &parts[q].link_chunks;
-                    let base = s * chunks.len();
-                    while let Some(i) = self.claims[q].next(base + chunks.len()) {
-                        for run in &parts[q].runs[chunks[i - base].clone()] {
-                            let lf = self.sf.write(run.start..run.end);
-                            k.run_links(run, &state, lf);
-                        }
+                let chunks = |q: usize| parts[q].link_chunks.len();
+                for (q, j) in Claim::claimed(&self.claims[..threads], t, s, chunks) {
+                    for run in &parts[q].runs[parts[q].link_chunks[j].clone()] {
+                        let lf = self.sf.write(run.start..run.end);
+                        k.run_links(run, &state, lf);
                     }
                 }
                 let ef = self.sf.write(nl + part.enf.start..nl + part.enf.end);
@@ -3766,15 +3818,14 @@ impl Job<'_> {
                 // (last chunk first: the links phase went up its part, so the materials phase
                 // starts where the forces and positions it just touched are still in the cache,
                 // and ends where the next step's links phase starts)
-                for q in (t..t + threads).map(|q| q % threads) {
-                    let chunks = &parts[q].mat_chunks;
-                    let base = s * chunks.len();
-                    while let Some(i) = self.claims[threads + q].next(base + chunks.len()) {
-                        let mats = chunks[chunks.len() - 1 - (i - base)].clone();
-                        let next = self.pos[r.next].write(mats.clone());
-                        let seg = k.first_segment(mats.start);
-                        k.materials_phase(mats, seg, n, cur, prev, next, Forces(sf));
-                    }
+                let claims = &self.claims[threads..2 * threads];
+                let chunks = |q: usize| parts[q].mat_chunks.len();
+                for (q, j) in Claim::claimed(claims, t, s, chunks) {
+                    let own = &parts[q].mat_chunks;
+                    let mats = own[own.len() - 1 - j].clone();
+                    let next = self.pos[r.next].write(mats.clone());
+                    let seg = k.first_segment(mats.start);
+                    k.materials_phase(mats, seg, n, cur, prev, next, Forces(sf));
                 }
             }
             barrier.wait()?;

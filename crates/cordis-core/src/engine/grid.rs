@@ -1008,15 +1008,11 @@ impl GridJob<'_> {
                     }
                 }
                 let scratch = self.scratch.write(t * len..(t + 1) * len);
-                // own chunks first, then the others' that are left
-                for q in (t..t + threads).map(|q| q % threads) {
-                    let chunks = &self.shares[q];
-                    let base = s * chunks.len();
-                    while let Some(i) = self.claims[q].next(base + chunks.len()) {
-                        for (sheet, rows) in grid.pieces(chunks[i - base].clone()) {
-                            let next = self.pos[r.next].write(sheet.slots(&rows));
-                            sheet.step(k, n, rows, state.0, state.1, next, scratch);
-                        }
+                let chunks = |q: usize| self.shares[q].len();
+                for (q, j) in Claim::claimed(&self.claims[..threads], t, s, chunks) {
+                    for (sheet, rows) in grid.pieces(self.shares[q][j].clone()) {
+                        let next = self.pos[r.next].write(sheet.slots(&rows));
+                        sheet.step(k, n, rows, state.0, state.1, next, scratch);
                     }
                 }
             }

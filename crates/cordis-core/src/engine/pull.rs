@@ -767,20 +767,16 @@ impl PullJob<'_> {
                 }
                 let pc = pc.read().as_chunks::<2>().0;
                 let n = self.n0 + s as u64;
-                // own chunks first, then the others' that are left
-                for q in (t..t + threads).map(|q| q % threads) {
-                    let chunks = &self.shares[q];
-                    let base = s * chunks.len();
-                    while let Some(i) = self.claims[q].next(base + chunks.len()) {
-                        let chunk = &chunks[i - base];
-                        let slots = chunk.slots.clone();
-                        let next = self.pos[r.next].write(slots.clone());
-                        let pn = pn
-                            .write(2 * slots.start..2 * slots.end)
-                            .as_chunks_mut::<2>()
-                            .0;
-                        self.pull.step(k, n, chunk, cur, prev, pc, next, pn);
-                    }
+                let chunks = |q: usize| self.shares[q].len();
+                for (q, j) in Claim::claimed(&self.claims[..threads], t, s, chunks) {
+                    let chunk = &self.shares[q][j];
+                    let slots = chunk.slots.clone();
+                    let next = self.pos[r.next].write(slots.clone());
+                    let pn = pn
+                        .write(2 * slots.start..2 * slots.end)
+                        .as_chunks_mut::<2>()
+                        .0;
+                    self.pull.step(k, n, chunk, cur, prev, pc, next, pn);
                 }
             }
             barrier.wait()?;
