@@ -442,7 +442,8 @@ struct Kernel {
     mas_fix: Vec<u32>,
     /// the pull step, when the network takes it (see [`Kernel::new`] and `engine/pull.rs`)
     pull: Option<Box<pull::Pull>>,
-    /// one share of the pull step per thread (see `Engine::set_threads`)
+    /// the pull step's share of each thread, cut into the chunks the threads claim (see
+    /// `Engine::set_threads` and `Pull::partition`)
     pull_shares: Vec<Vec<pull::Share>>,
     /// the grid step, when the network is a membrane it takes (see `engine/grid.rs`)
     grid: Option<Box<grid::Grid>>,
@@ -3714,8 +3715,7 @@ fn signed(j: u32) -> (u32, u64) {
 /// The work of a phase is cut into chunks: the link chunks of every part (runs, whose slots `l`
 /// of `sf` they write) and its material chunks (storage slots, whose next position
 /// they write in `pos[next]`). Each thread claims its own part's chunks first, then whatever is
-/// left of the others' (so a thread that is slower, for whatever reason, is helped rather than
-/// waited for); [`Claim::next`] hands each chunk to exactly one thread per step (the link chunks
+/// left of the others', each to exactly one thread per step ([`Claim::claimed`]; the link chunks
 /// in their order, the material chunks last first). Thread `t` also
 /// writes the slots `nl + enf` of its part, and copies `mats` of its part into the snapshot
 /// before the first step. Per step `n`, with `cur`, `prev`, `next` the [`Roles`] of step `n`:

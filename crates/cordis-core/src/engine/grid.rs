@@ -241,7 +241,7 @@ pub(super) fn may_hold(net: &Network) -> bool {
 }
 
 /// The `x(n+1)` of one row: the whole state, the row below's `x(n)` and `x(n-1)`, and the
-/// row buffers (see [`Grid::row`]).
+/// row buffers (see [`Sheet::row`]).
 struct RowArgs<'a> {
     x: &'a [f64],
     xp: &'a [f64],
@@ -934,10 +934,8 @@ impl Sheet {
 /// The grid step of a block on the pool's threads. The rows (in the grid's row count: the
 /// sheets' rows one after the other, [`Grid::pieces`]) are cut into `shares[t]`, the chunks of
 /// thread `t` ([`Grid::partition`]). In each step thread `t` claims the chunks of its own share
-/// first, then whatever is left of the others' (so a thread whose core runs slower is helped
-/// rather than waited for); `claims[q]` hands each chunk of share `q` to exactly one thread per
-/// step ([`Claim::next`]; every chunk of a step is claimed before its barrier, so the next
-/// step's are the next `shares[q].len()` values of the counter):
+/// first, then whatever is left of the others', each to exactly one thread, `claims[q]` counting
+/// share `q`'s ([`Claim::claimed`]):
 ///
 /// | in a step, thread `t` reads | and writes |
 /// | --- | --- |

@@ -447,9 +447,8 @@ impl Pull {
         next: &mut [f64],
         pn: &mut [[f64; 2]],
     ) {
-        assert!(next.len() == (LANES * gr.end).min(k.n_mas) - (LANES * gr.start).min(k.n_mas));
-        assert!(pn.len() == next.len() && gr.end < self.bounds.len());
-        // the groups of eight MAS, and the last (partial) one if `gr` has it
+        // the groups of eight MAS, and the last (partial) one if `gr` has it (`groups_as`
+        // checks each against its buffers)
         let whole = gr.start..gr.end.min(k.n_mas / LANES).max(gr.start);
         let at = LANES * whole.len();
         let (next, next_part) = next.split_at_mut(at);
@@ -695,10 +694,8 @@ unsafe fn pairs(
 ///
 /// The work is cut into `shares[t]`, the chunks of thread `t` ([`Pull::partition`]). In each
 /// step thread `t` claims the chunks of its own share first, then whatever is left of the
-/// others' (so a thread whose core runs slower is helped rather than waited for); `claims[q]`
-/// hands each chunk of share `q` to exactly one thread per step ([`Claim::next`]; every chunk of
-/// a step is claimed before its barrier, so the next step's are the next `shares[q].len()`
-/// values of the counter). Per step `n`, with `cur`, `prev`, `next` the [`Roles`] of step `n`,
+/// others', each to exactly one thread, `claims[q]` counting share `q`'s ([`Claim::claimed`]).
+/// Per step `n`, with `cur`, `prev`, `next` the [`Roles`] of step `n`,
 /// and `pc`, `pn` the pair buffers of steps `n` and `n + 1` (`pairs[s % 2]` and the other, `s`
 /// counting the block's steps):
 ///
