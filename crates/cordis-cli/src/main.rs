@@ -37,7 +37,11 @@ Exit codes:
   1  the model or an input file is invalid
   2  the command line is wrong
   3  the simulation blew up (render) or the model is unstable (check)
-  4  the output could not be written, or would clip";
+  4  the output could not be written, or would clip
+
+Environment:
+  CORDIS_SIMD  avx512 (the default), avx2 or none: the widest vector instructions the engine
+               uses, to time what another CPU gets (the output is the same, bit for bit)";
 
 #[derive(Parser)]
 #[command(name = "cordis", version, about = "CORDIS-ANIMA physical models: check them, render them to sound and data",
@@ -704,6 +708,10 @@ fn main() -> ExitCode {
             return ExitCode::from(code);
         }
     };
+    if let Err(e) = cordis_core::SimdLimit::from_env() {
+        eprintln!("cordis: {e}");
+        return ExitCode::from(exit::USAGE);
+    }
     let code = match cli.command {
         Command::Render(a) => render::render(&a),
         Command::Check(a) => render::check(&a),

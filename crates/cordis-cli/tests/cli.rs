@@ -7,7 +7,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::cordis;
+use common::{cordis, cordis_with};
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
@@ -272,6 +272,43 @@ fn usage_errors_exit_2_and_help_has_examples() {
     }
     let r = cordis(dir.path(), &["--help"]);
     assert!(r.stdout.contains("Exit codes"), "{}", r.stdout);
+}
+
+/// `CORDIS_SIMD` limits the engine's vector instructions without changing a bit of the output;
+/// a value it does not know is a usage error that names the values it may take.
+#[test]
+fn the_simd_limit_changes_no_bit_and_a_wrong_one_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "s.cordis",
+        "duration 0.2s\nstring s n=100 M=1 K=0.1 Z=1e-4 pluck=(30, 1)\nsox o s[10]\n",
+    );
+    let mut renders = Vec::new();
+    for limit in ["avx512", "avx2", "none"] {
+        let out = format!("{limit}.f64");
+        let r = cordis_with(
+            dir.path(),
+            &["render", "s.cordis", "-o", &out],
+            &[("CORDIS_SIMD", limit)],
+        );
+        expect_code!(r, 0);
+        renders.push(std::fs::read(dir.path().join(&out)).unwrap());
+    }
+    assert!(renders[0].len() > 8000 && renders[0].iter().any(|&b| b != 0));
+    assert!(renders.iter().all(|r| *r == renders[0]));
+    let r = cordis_with(
+        dir.path(),
+        &["render", "s.cordis", "-o", "x.f64"],
+        &[("CORDIS_SIMD", "avx-2")],
+    );
+    expect_code!(r, 2);
+    assert!(
+        r.stderr.contains("CORDIS_SIMD is \"avx-2\"") && r.stderr.contains("did you mean avx2?"),
+        "{}",
+        r.stderr
+    );
+    assert!(!dir.path().join("x.f64").exists());
 }
 
 #[test]

@@ -7,6 +7,7 @@
 //! cargo bench -p cordis-core --bench engine -- membrane 32x32 random
 //! CORDIS_BENCH_WORK=2e6 cargo bench -p cordis-core --bench engine   # a quick run
 //! cargo bench -p cordis-core --bench engine -- threads 100000    # 1 vs 2 threads
+//! CORDIS_SIMD=avx2 cargo bench -p cordis-core --bench engine -- random   # as on a CPU without AVX-512
 //! ```
 //!
 //! Models (every parameter as in the C baselines: M = 1, REF K = 0.1, Z = 0.0001, V0 = 1):
@@ -43,7 +44,7 @@
 use std::hint::black_box;
 use std::time::Instant;
 
-use cordis_core::{Curve, Engine, Interaction, MatId, Material, Network};
+use cordis_core::{Curve, Engine, Interaction, MatId, Material, Network, SimdLimit};
 
 const M: f64 = 1.0;
 const K: f64 = 0.1;
@@ -1356,6 +1357,14 @@ fn threads_mode(n: usize, threads: usize, kinds: &[String]) {
 }
 
 fn main() {
+    match SimdLimit::from_env() {
+        Err(e) => {
+            eprintln!("{e}");
+            std::process::exit(2);
+        }
+        Ok(Some(limit)) => println!("{}: vector instructions up to {limit:?}", SimdLimit::VAR),
+        Ok(None) => {}
+    }
     let args: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| !a.starts_with('-'))

@@ -680,7 +680,17 @@ impl Engine {
     /// network): a programmer error. The model crate validates user input before building.
     #[track_caller]
     pub fn new(net: &Network) -> Engine {
-        let k = Kernel::new(net);
+        Engine::with_kernel(Kernel::new(net))
+    }
+
+    /// [`Engine::new`] compiled for `simd` (which the CPU has): the tests' way to the steps
+    /// that a CPU with other vector units takes.
+    #[cfg(test)]
+    fn new_for(net: &Network, simd: Simd) -> Engine {
+        Engine::with_kernel(Kernel::new_for(net, simd))
+    }
+
+    fn with_kernel(k: Kernel) -> Engine {
         let nm = k.nm;
         let mut st = State {
             n: 0,
@@ -1226,24 +1236,33 @@ impl Kernel {
     /// reference's bits.
     /// A network of RES, FRO and REF links without locality (one that takes the compact step,
     /// whose links are scattered, or whose links and MAS are mostly read through index lists)
-    /// also gets the pull step (`engine/pull.rs`) when the CPU has AVX-512: [`Engine::process`]
-    /// then takes it, on one thread or on the pool's (`pull::PullJob`). Membranes, each of one
+    /// also gets the pull step (`engine/pull.rs`) when the CPU has AVX-512 (with AVX2 only, when
+    /// every link is a REF): [`Engine::process`] then takes it, on one thread or on the pool's
+    /// (`pull::PullJob`). Membranes, each of one
     /// REF law, their borders fixed or free, alone or with at most half as much
     /// around them, get the grid step instead (`engine/grid.rs`, `grid::GridJob`), which keeps every
     /// force in registers; their network is stored with its MAS in declaration order
     /// ([`Mobiles::Declared`]).
     #[track_caller]
     fn new(net: &Network) -> Kernel {
+        Kernel::new_for(net, Simd::detect())
+    }
+
+    /// [`Kernel::new`] compiled for `simd` (which the CPU has).
+    #[track_caller]
+    fn new_for(net: &Network, simd: Simd) -> Kernel {
         if grid::may_hold(net) {
             // (stored with its MAS in declaration order, so that a membrane's border and struck
             // MAS stay in their rows)
             let mut k = Kernel::build_with(net, false, Joins::Rows, Mobiles::Declared);
+            k.simd = simd;
             if let Some(g) = grid::Grid::new(&k) {
                 k.grid = Some(Box::new(g));
                 return k;
             }
         }
         let mut k = Kernel::choose(net);
+        k.simd = simd;
         if k.compact || k.scattered || k.mostly_indexed() {
             k.pull = pull::Pull::new(&k).map(Box::new);
         }
@@ -3001,7 +3020,9 @@ impl Simd {
             if let Some(cpu) = Avx512::detect() {
                 return Simd::Avx512(cpu);
             }
-            if std::is_x86_feature_detected!("avx2") {
+            if crate::SimdLimit::current() >= crate::SimdLimit::Avx2
+                && std::is_x86_feature_detected!("avx2")
+            {
                 return Simd::Avx2;
             }
         }
@@ -4451,6 +4472,92 @@ mod tests {
         net.add_position_output(ids[n / 2]);
         net.add_force_output(LinkId(3));
         net
+    }
+
+    /// [`springs`] with every link a REF (of one `K` and `Z`, or each its own) and MAS of one
+    /// inertia law: `inertia` 0, one power of two (multiplied); 1, one other inertia (divided);
+    /// 2, powers of two (each its own reciprocal); 3, any.
+    fn ref_springs(seed: u64, n: usize, inertia: usize, uniform: bool) -> Network {
+        let mut net = springs(seed, n, None);
+        for (i, link) in net.links.iter_mut().enumerate() {
+            let w = if uniform {
+                1.0
+            } else {
+                1.0 + 0.01 * (i % 7) as f64
+            };
+            link.law = Interaction::Ref {
+                k: 0.04 * w,
+                z: 1e-3 / w,
+            };
+        }
+        for (i, mat) in net.materials.iter_mut().enumerate() {
+            if let Material::Mas { m, .. } = mat {
+                *m = match inertia {
+                    0 => 0.5,
+                    1 => 1.5,
+                    2 => [1.0, 0.5, 2.0][i % 3],
+                    _ => [1.0, 0.7, 1.5][i % 3],
+                };
+            }
+        }
+        net
+    }
+
+    /// On a CPU with AVX2 but not AVX-512, networks of REF links take the pull step four lanes
+    /// at a time (`engine/pull/avx2.rs`), and it gives the other steps' bits at every step, on
+    /// one thread or two, for every inertia law, links of one `K` and `Z` or each its own, whole
+    /// and partial groups; a network with another law keeps the other steps.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_avx2_pull_step_gives_the_other_steps_bits() {
+        if !std::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        assert!(Engine::new_for(&springs(1, 40, None), Simd::Avx2)
+            .k
+            .pull
+            .is_none());
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for (seed, n) in [(1, 16), (2, 43), (3, 123), (4, 500)] {
+            for inertia in 0..4 {
+                for uniform in [true, false] {
+                    let what = format!("network {seed}, inertia {inertia}, uniform {uniform}");
+                    let net = ref_springs(seed, n, inertia, uniform);
+                    let mut pulled = Engine::new_for(&net, Simd::Avx2);
+                    assert!(pulled.k.pull.is_some(), "{what}");
+                    assert_eq!(pulled.k.pull.as_ref().unwrap().shared_params(), uniform);
+                    let mut other = pulled.clone();
+                    let mut threaded = pulled.clone();
+                    threaded.set_parallel_threshold(0);
+                    threaded.set_threads(2);
+                    assert!(threaded.is_parallel());
+                    let mut scalar = Engine::new_for(&net, Simd::None);
+                    assert!(scalar.k.pull.is_none());
+                    let ch = pulled.channels();
+                    let mut moved = false;
+                    for (i, block) in [1, 7, 300, 64, 1024].into_iter().enumerate() {
+                        let mut out = [(); 4].map(|()| vec![0.0; block * ch]);
+                        let [a, b, c, d] = &mut out;
+                        assert!(pulled.process(block, a).is_ok());
+                        assert!(other.process_observed(block, b, &mut |_| {}).is_ok());
+                        assert!(threaded.process(block, c).is_ok());
+                        assert!(scalar.process(block, d).is_ok());
+                        for (j, o) in [&*b, &*c, &*d].into_iter().enumerate() {
+                            assert_eq!(bits(a), bits(o), "{what}, block {i}, engine {j}");
+                        }
+                        moved |= a.iter().any(|&v| v != a[0]);
+                    }
+                    assert!(moved, "{what}");
+                    for m in (0..net.materials.len() as u32).map(MatId) {
+                        let (x, xp) = (scalar.position(m), scalar.previous_position(m));
+                        for e in [&pulled, &threaded] {
+                            assert_eq!(e.position(m).to_bits(), x.to_bits(), "{what}");
+                            assert_eq!(e.previous_position(m).to_bits(), xp.to_bits());
+                        }
+                    }
+                }
+            }
+        }
     }
 
     /// Networks of springs and dampers take the pull step on an AVX-512 CPU (and only there, and

@@ -10,16 +10,107 @@
 /// Lanes of a block.
 pub(crate) const LANES: usize = 8;
 
+/// The widest vector instructions an [`Engine`](crate::Engine) may use, whatever the CPU has.
+///
+/// Every width computes the same IEEE operations on the same values, so the output is the same,
+/// bit for bit, under every limit; only the speed changes. The limit is read once per process
+/// from the environment variable `CORDIS_SIMD` ([`SimdLimit::VAR`]): `avx512` (the default),
+/// `avx2` or `none`. It is there to time or test, on one machine, what a CPU without AVX-512 (or
+/// without vector units) gets; a value the engine does not know sets no limit (the `cordis` CLI
+/// refuses it with [`SimdLimit::from_env`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum SimdLimit {
+    /// No vector instructions beyond the target's baseline (SSE2 on x86-64).
+    None,
+    /// Up to AVX2 (four `f64` lanes).
+    Avx2,
+    /// Up to AVX-512 (eight `f64` lanes): no limit.
+    Avx512,
+}
+
+impl SimdLimit {
+    /// The environment variable that sets the limit.
+    pub const VAR: &'static str = "CORDIS_SIMD";
+    const NAMES: [(&'static str, SimdLimit); 3] = [
+        ("avx512", SimdLimit::Avx512),
+        ("avx2", SimdLimit::Avx2),
+        ("none", SimdLimit::None),
+    ];
+
+    /// The limit [`SimdLimit::VAR`] sets: `Ok(None)` when it is unset, an error naming the
+    /// values it may take when it is set to anything else.
+    pub fn from_env() -> Result<Option<SimdLimit>, SimdLimitError> {
+        match std::env::var(Self::VAR) {
+            Err(std::env::VarError::NotPresent) => Ok(None),
+            Err(std::env::VarError::NotUnicode(v)) => Err(SimdLimitError {
+                value: v.to_string_lossy().into_owned(),
+            }),
+            Ok(v) => v.parse().map(Some),
+        }
+    }
+
+    /// The limit of this process: [`SimdLimit::from_env`], read once; no limit when it is unset
+    /// or not understood.
+    pub fn current() -> SimdLimit {
+        static LIMIT: std::sync::OnceLock<SimdLimit> = std::sync::OnceLock::new();
+        *LIMIT.get_or_init(|| Self::from_env().ok().flatten().unwrap_or(SimdLimit::Avx512))
+    }
+}
+
+impl std::str::FromStr for SimdLimit {
+    type Err = SimdLimitError;
+
+    /// `avx512`, `avx2` or `none`, in any case.
+    fn from_str(s: &str) -> Result<SimdLimit, SimdLimitError> {
+        let t = s.trim().to_ascii_lowercase();
+        (Self::NAMES.iter().find(|(name, _)| *name == t))
+            .map(|&(_, limit)| limit)
+            .ok_or_else(|| SimdLimitError {
+                value: s.to_owned(),
+            })
+    }
+}
+
+/// A value of `CORDIS_SIMD` that is not `avx512`, `avx2` or `none`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SimdLimitError {
+    /// The value as it was set.
+    pub value: String,
+}
+
+impl std::fmt::Display for SimdLimitError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} is {:?}: it may be avx512 (the default), avx2 or none",
+            SimdLimit::VAR,
+            self.value
+        )?;
+        let t: String = (self.value.chars())
+            .filter(char::is_ascii_alphanumeric)
+            .map(|c| c.to_ascii_lowercase())
+            .collect();
+        let near = (SimdLimit::NAMES.iter().map(|(name, _)| *name))
+            .find(|name| !t.is_empty() && (name.starts_with(&t) || t.starts_with(name)));
+        if let Some(name) = near {
+            write!(f, " (did you mean {name}?)")?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for SimdLimitError {}
+
 /// Proof that the CPU has AVX-512F: only [`Avx512::detect`] makes one, so the blocks it loads
 /// and stores are safe to use wherever one is at hand.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Avx512(());
 
 impl Avx512 {
-    /// `Some` when this CPU has AVX-512F.
+    /// `Some` when this CPU has AVX-512F and [`SimdLimit::current`] allows it.
     pub(crate) fn detect() -> Option<Avx512> {
         #[cfg(target_arch = "x86_64")]
-        if std::is_x86_feature_detected!("avx512f") {
+        if SimdLimit::current() >= SimdLimit::Avx512 && std::is_x86_feature_detected!("avx512f") {
             return Some(Avx512(()));
         }
         None
@@ -99,6 +190,35 @@ fn mask(len: usize) -> u8 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The limit's names parse in any case, widest last in order; others are refused with the
+    /// values they may be and, when one is near, which.
+    #[test]
+    fn simd_limits_parse_and_a_wrong_one_names_the_right_ones() {
+        assert_eq!("avx512".parse(), Ok(SimdLimit::Avx512));
+        assert_eq!(" AVX2 ".parse(), Ok(SimdLimit::Avx2));
+        assert_eq!("None".parse(), Ok(SimdLimit::None));
+        assert!(SimdLimit::None < SimdLimit::Avx2 && SimdLimit::Avx2 < SimdLimit::Avx512);
+        for (value, hint) in [
+            ("avx-512", Some("avx512")),
+            ("avx2x", Some("avx2")),
+            ("no", Some("none")),
+            ("sse", None),
+            ("", None),
+        ] {
+            let e = value.parse::<SimdLimit>().unwrap_err();
+            let text = e.to_string();
+            assert!(text.starts_with("CORDIS_SIMD is "), "{text}");
+            assert!(
+                text.contains("avx512 (the default), avx2 or none"),
+                "{text}"
+            );
+            match hint {
+                Some(h) => assert!(text.ends_with(&format!("(did you mean {h}?)")), "{text}"),
+                None => assert!(!text.contains("did you mean"), "{text}"),
+            }
+        }
+    }
 
     /// Loads and stores touch exactly the items of their slice, at the very end of an
     /// allocation too (a boxed slice has no spare capacity after it), for every length.

@@ -43,5 +43,6 @@ mod signal;
 
 pub use curve::{Curve, CurveError};
 pub use engine::{BlowUp, Engine, StepView};
+pub use lanes::{SimdLimit, SimdLimitError};
 pub use network::{ForceInput, Interaction, Link, LinkId, MatId, Material, Network, Output, Probe};
 pub use signal::Signal;

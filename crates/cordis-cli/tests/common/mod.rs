@@ -13,9 +13,15 @@ pub struct Run {
 
 /// Runs `cordis ARGS` in `dir`.
 pub fn cordis(dir: &Path, args: &[&str]) -> Run {
+    cordis_with(dir, args, &[])
+}
+
+/// Runs `cordis ARGS` in `dir` with the environment variables `vars` set.
+pub fn cordis_with(dir: &Path, args: &[&str], vars: &[(&str, &str)]) -> Run {
     let out: Output = Command::new(env!("CARGO_BIN_EXE_cordis"))
         .current_dir(dir)
         .args(args)
+        .envs(vars.iter().copied())
         .output()
         .unwrap();
     Run {

@@ -31,7 +31,9 @@
 //!
 //! Only RES, FRO and REF are pulled (their force is odd in the ends' order); a network with a
 //! BUT or an LNL keeps the other steps. The loads and shuffles are AVX-512 (the CPU's proof is an
-//! [`Avx512`] token); without it the network keeps the compact or gather step.
+//! [`Avx512`] token). A CPU with AVX2 but not AVX-512 takes the same rows four lanes at a time
+//! ([`avx2`]), on networks of REF links only; without either the network keeps the compact or
+//! gather step.
 //!
 //! CEL (few in practice) pull their terms one at a time with the same expressions; ENX read
 //! their signal; SOL never change. The pair buffers are rebuilt from the positions at the start
@@ -46,8 +48,20 @@ use std::ops::Range;
 
 use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
 
-use super::{Claim, Kernel, Law, MasLaw, Roles, Run, State, NEG};
+use super::{Claim, Kernel, Law, MasLaw, Roles, Run, Simd, State, NEG};
 use crate::lanes::Avx512;
+
+#[cfg(target_arch = "x86_64")]
+mod avx2;
+
+/// The vector instructions a pull step is compiled for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Isa {
+    /// (with the CPU's proof)
+    Avx512(Avx512),
+    /// Made only where [`Simd::detect`](super::Simd) found AVX2 on this CPU.
+    Avx2,
+}
 
 /// MAS per group: the lanes of one AVX-512 vector.
 const LANES: usize = 8;
@@ -95,7 +109,7 @@ enum CelTerm {
 /// The pull step of a network of RES, FRO and REF links (see the module documentation).
 #[derive(Clone, Debug)]
 pub(super) struct Pull {
-    cpu: Avx512,
+    isa: Isa,
     /// Group `g` is MAS `LANES g..` (storage slots; the last group may be partial); its terms
     /// are `rows[bounds[g]..bounds[g + 1]]`.
     bounds: Vec<u32>,
@@ -114,16 +128,27 @@ pub(super) struct Pull {
 }
 
 impl Pull {
-    /// The pull step of `k`, if it can take one: the CPU has AVX-512, every link is a RES, FRO or
-    /// REF, and there are at least [`PULL_MIN`] MAS.
+    /// The pull step of `k`, if it can take one: the kernel is compiled for AVX-512 and every
+    /// link is a RES, FRO or REF, or for AVX2 and every link is a REF ([`avx2`]); and there are at
+    /// least [`PULL_MIN`] MAS.
     pub(super) fn new(k: &Kernel) -> Option<Pull> {
-        let cpu = k.tails()?;
+        let isa = match k.simd {
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx512(cpu) => Isa::Avx512(cpu),
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx2 => Isa::Avx2,
+            Simd::None => return None,
+        };
         if k.n_mas < PULL_MIN || k.nm >= 1 << 28 {
             return None; // (`Row::at` is a 32-bit byte offset)
         }
         let mut law = vec![Law::Ref; k.nl];
         for run in &k.whole.runs {
-            if !matches!(run.law, Law::Res | Law::Fro | Law::Ref) {
+            let pulled = match isa {
+                Isa::Avx512(_) => matches!(run.law, Law::Res | Law::Fro | Law::Ref),
+                Isa::Avx2 => run.law == Law::Ref,
+            };
+            if !pulled {
                 return None;
             }
             law[run.start..run.end].fill(run.law);
@@ -149,7 +174,7 @@ impl Pull {
         let uniform = (0..k.nl).all(|l| kz(l) == kz(0));
 
         let mut p = Pull {
-            cpu,
+            isa,
             bounds: vec![0],
             rows: Vec::new(),
             params: Vec::new(),
@@ -216,6 +241,12 @@ impl Pull {
         Some(p)
     }
 
+    /// Whether every row has the same `K` and `Z` (one row of parameters for them all).
+    #[cfg(test)]
+    pub(super) fn shared_params(&self) -> bool {
+        self.params.len() == 1
+    }
+
     /// Cuts the work of a step into `threads` shares of about equal cost (consecutive groups),
     /// and each share into chunks of consecutive groups, the units the threads claim
     /// ([`PullJob`]): about [`CHUNK_MAS`] MAS each, at least [`CHUNKS_MIN`] where the groups
@@ -266,7 +297,10 @@ impl Pull {
     /// Steps `frames` times from `st` on the calling thread, writing the outputs into `out` (see
     /// [`super::Engine::process`]).
     pub(super) fn block(&self, k: &Kernel, st: &mut State, frames: usize, out: &mut [f64]) {
-        debug_assert_eq!(Some(self.cpu), Avx512::detect());
+        debug_assert!(match self.isa {
+            Isa::Avx512(cpu) => Some(cpu) == Avx512::detect(),
+            Isa::Avx2 => Simd::detect() == Simd::Avx2 || Avx512::detect().is_some(),
+        });
         self.prepare(k, st);
         let whole = Share {
             groups: 0..self.bounds.len() - 1,
@@ -336,32 +370,6 @@ impl Pull {
         next: &mut [f64],
         pn: &mut [[f64; 2]],
     ) {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: `self.cpu` exists, so the CPU has AVX-512F (see `Avx512::detect`).
-        unsafe {
-            self.step_avx512(k, n, share, cur, prev, pc, next, pn);
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            let _ = (k, n, share, cur, prev, pc, next, pn);
-            unreachable!("a pull step needs an Avx512 token, which exists only on x86-64");
-        }
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    #[allow(clippy::too_many_arguments)] // the step's buffers
-    fn step_avx512(
-        &self,
-        k: &Kernel,
-        n: u64,
-        share: &Share,
-        cur: &[f64],
-        prev: &[f64],
-        pc: &[[f64; 2]],
-        next: &mut [f64],
-        pn: &mut [[f64; 2]],
-    ) {
         let nm = k.nm;
         assert!(cur.len() == nm && prev.len() == nm && pc.len() == nm);
         let slots = share.slots.clone();
@@ -370,12 +378,31 @@ impl Pull {
         let (next, next_others) = next.split_at_mut(mas);
         let (pn, pn_others) = pn.split_at_mut(mas);
         let gr = share.groups.clone();
-        if let [one] = &self.params[..] {
-            let params = |_: Range<usize>| std::iter::repeat(one);
-            self.groups(k, n, gr, prev, pc, params, next, pn);
-        } else {
-            let params = |r: Range<usize>| self.params[r].iter();
-            self.groups(k, n, gr, prev, pc, params, next, pn);
+        // the MAS, their loop compiled for one row of parameters or one per row
+        #[cfg(target_arch = "x86_64")]
+        macro_rules! groups {
+            ($groups:ident, $($buffers:expr),*) => {
+                if let [one] = &self.params[..] {
+                    let params = |_: Range<usize>| std::iter::repeat(one);
+                    self.$groups(k, n, gr, $($buffers,)* params, next, pn)
+                } else {
+                    let params = |r: Range<usize>| self.params[r].iter();
+                    self.$groups(k, n, gr, $($buffers,)* params, next, pn)
+                }
+            };
+        }
+        #[cfg(target_arch = "x86_64")]
+        match self.isa {
+            // SAFETY: the token exists, so the CPU has AVX-512F (see `Avx512::detect`).
+            Isa::Avx512(_) => unsafe { groups!(groups, prev, pc) },
+            // SAFETY: `Pull::new` made `Isa::Avx2` from `Simd::Avx2`, which `Simd::detect`
+            // returns only when the CPU has AVX2 (an engine does not move to another machine).
+            Isa::Avx2 => unsafe { groups!(groups_avx2, cur, prev, pc) },
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = (n, gr, next, pn);
+            unreachable!("a pull step needs AVX-512 or AVX2, which exist only on x86-64");
         }
         if slots.end > k.n_mas {
             assert!(slots.end == k.n_mce && slots.start <= k.n_mas);
