@@ -474,13 +474,8 @@ impl Pull {
         next: &mut [f64],
         pn: &mut [[f64; 2]],
     ) {
-        // the groups of eight MAS, and the last (partial) one if `gr` has it (`groups_as`
-        // checks each against its buffers)
-        let whole = gr.start..gr.end.min(k.n_mas / LANES).max(gr.start);
-        let at = LANES * whole.len();
-        let (next, next_part) = next.split_at_mut(at);
-        let (pn, pn_part) = pn.split_at_mut(at);
-        let part = whole.end..gr.end;
+        // (`groups_as` checks each piece against its buffers)
+        let ([whole, part], (next, next_part), (pn, pn_part)) = split_whole(k, gr, next, pn);
         let none: &[f64] = &[];
         macro_rules! both {
             ($div:literal, $per:literal, $m:expr, $ms:expr) => {{
@@ -647,6 +642,27 @@ impl Pull {
             }
         }
     }
+}
+
+/// The whole groups of `gr` (of eight MAS) and the last, partial, one if `gr` has it (then
+/// `gr.end - 1`; else an empty range), with `next` and `pn` (the slots of `gr`'s MAS) cut where
+/// the partial group's slots start.
+#[cfg(target_arch = "x86_64")]
+#[allow(clippy::type_complexity)] // (the two pieces of each buffer)
+fn split_whole<'b>(
+    k: &Kernel,
+    gr: Range<usize>,
+    next: &'b mut [f64],
+    pn: &'b mut [[f64; 2]],
+) -> (
+    [Range<usize>; 2],
+    (&'b mut [f64], &'b mut [f64]),
+    (&'b mut [[f64; 2]], &'b mut [[f64; 2]]),
+) {
+    let whole = gr.start..gr.end.min(k.n_mas / LANES).max(gr.start);
+    let at = LANES * whole.len();
+    let part = whole.end..gr.end;
+    ([whole, part], next.split_at_mut(at), pn.split_at_mut(at))
 }
 
 /// `F(n)` of the eight lanes of a group: from `+0.0`, `F - g` for each of its `rows`, with

@@ -22,7 +22,7 @@ use std::arch::x86_64::*;
 use std::hint::black_box;
 use std::ops::Range;
 
-use super::{Kernel, MasLaw, Pull, Row, LANES};
+use super::{split_whole, Kernel, MasLaw, Pull, Row, LANES};
 use crate::engine::{by_div, by_inv};
 
 /// Lanes of an AVX2 vector of `f64`.
@@ -46,10 +46,7 @@ impl Pull {
         next: &mut [f64],
         pn: &mut [[f64; 2]],
     ) {
-        let whole = gr.start..gr.end.min(k.n_mas / LANES).max(gr.start);
-        let at = LANES * whole.len();
-        let (next, next_part) = next.split_at_mut(at);
-        let (pn, pn_part) = pn.split_at_mut(at);
+        let ([whole, part], (next, next_part), (pn, pn_part)) = split_whole(k, gr, next, pn);
         let none: &[f64] = &[];
         macro_rules! whole {
             ($div:literal, $per:literal, $m:expr, $ms:expr) => {
@@ -74,9 +71,9 @@ impl Pull {
             MasLaw::Inv(inv) => whole!(false, true, &0.0, inv),
             MasLaw::Div(m) => whole!(true, true, &0.0, m),
         }
-        if whole.end < gr.end {
-            assert!(gr.end == whole.end + 1);
-            self.part(k, n, whole.end, cur, prev, pc, params, next_part, pn_part);
+        if !part.is_empty() {
+            assert!(part.len() == 1);
+            self.part(k, n, part.start, cur, prev, pc, params, next_part, pn_part);
         }
     }
 
@@ -181,8 +178,9 @@ impl Pull {
         }
     }
 
-    /// The partial group `g` (the last), lane by lane, with the rows' masks: the AVX-512 step's
-    /// expressions on one lane.
+    /// The partial group `g` (the last), lane by lane: the REF terms of the lane's rows (those
+    /// its mask bits name; the others are padding, skipped), then its ENF inputs, with the
+    /// reference's expressions.
     #[allow(clippy::too_many_arguments)] // the step's buffers
     fn part<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>>(
         &self,
@@ -207,18 +205,11 @@ impl Pull {
             let v = x - xp;
             let mut f = 0.0;
             for (row, [kr, zr]) in self.rows[rows.clone()].iter().zip(params(rows.clone())) {
+                if row.k & (1 << i) == 0 {
+                    continue; // (padding: every term of this step's networks is a REF)
+                }
                 let [xj, vj] = pc[row.at[i] as usize / 16];
-                let spring = if row.k & (1 << i) != 0 {
-                    kr[i] * (x - xj)
-                } else {
-                    0.0
-                };
-                let damper = if row.z & (1 << i) != 0 {
-                    zr[i] * (v - vj)
-                } else {
-                    0.0
-                };
-                f -= spring + damper;
+                f -= kr[i] * (x - xj) + zr[i] * (v - vj);
             }
             for &(_, e) in inputs.iter().filter(|&&(l, _)| l as usize == i) {
                 f += k.enf[e as usize].at(n);
