@@ -2390,6 +2390,15 @@ impl Kernel {
         (covered == wanted.iter().filter(|&&w| w).count()).then_some(runs)
     }
 
+    /// Each link's law, by link slot.
+    fn laws(&self) -> Vec<Law> {
+        let mut law = vec![Law::Ref; self.nl];
+        for run in &self.whole.runs {
+            law[run.start..run.end].fill(run.law);
+        }
+        law
+    }
+
     /// The links the outputs read (SOF and sums of them), each a run of its own, for the steps
     /// that keep no force buffer (the pull and grid steps): `None` if one is in no run.
     fn recorded_links(&self) -> Option<Vec<Run>> {
@@ -4105,7 +4114,12 @@ mod tests {
             k: k_of(s),
             z: 1e-4,
         });
-        let k = Kernel::new(&net);
+        // (with AVX-512 the grid step takes them, each a string of its own: the gather step's
+        // storage is `choose`'s)
+        let grid = Kernel::new(&net).grid;
+        let strings = 12 * usize::from(Avx512::detect().is_some());
+        assert_eq!(grid.map_or(0, |g| g.sheets()), strings);
+        let k = Kernel::choose(&net);
         assert!(k.grid.is_none() && !k.compact, "the gather step");
         let runs = &k.whole.runs;
         let steps: Vec<&Run> = runs.iter().filter(|r| r.ends != Ends::Indexed).collect();
@@ -4921,8 +4935,8 @@ mod tests {
         assert_eq!(sheets(&narrow), 1);
         narrow.append(&membrane(2, 10, |_| 1.0));
         assert_eq!(sheets(&narrow), 0);
-        // too much around it (a string of 121 MAS for 120 in the membrane), a ground link of
-        // another stiffness, a link to a neighbour missing
+        // too much around it (a string of 121 MAS, RES links, for 120 in the membrane), a ground
+        // link of another stiffness, a link to a neighbour missing
         let mut strung = membrane(6, 20, |_| 1.0);
         let string: Vec<MatId> = (0..121)
             .map(|_| {
@@ -4934,9 +4948,9 @@ mod tests {
             })
             .collect();
         for pair in string.windows(2) {
-            strung.add_link(Interaction::Ref { k: 0.1, z: 0.0 }, pair[0], pair[1]);
+            strung.add_link(Interaction::Res { k: 0.1 }, pair[0], pair[1]);
         }
-        strung.add_link(Interaction::Ref { k: 0.1, z: 0.0 }, MatId(50), string[0]);
+        strung.add_link(Interaction::Res { k: 0.1 }, MatId(50), string[0]);
         assert!(!taken(&strung));
         assert!(!taken(&changed(0, Interaction::Ref { k: 0.2, z: 1e-4 })));
         let mut cut = membrane(6, 20, |_| 1.0);
@@ -5024,6 +5038,158 @@ mod tests {
             }
             assert!(moved, "{name}: the outputs never moved");
         }
+    }
+
+    /// The grid step takes strings of REF links too, each cut into rows (`engine/grid.rs`
+    /// `Sheet::string_at`), and gives the gather step's bits on one thread and on three: every
+    /// output and, after each block, every link force.
+    #[test]
+    fn the_grid_step_takes_strings_and_gives_the_gather_bits() {
+        let refs = |_| Interaction::Ref { k: 0.1, z: 1e-4 };
+        if Avx512::detect().is_none() {
+            assert!(Engine::new(&bank(1, 100, refs)).k.grid.is_none());
+            return;
+        }
+        let sheets = |net: &Network| Engine::new(net).k.grid.as_ref().map_or(0, |g| g.sheets());
+        // `bank(1, n)`'s links: the left ground, the `n - 1` inner ones, the right ground
+        let one = |n: usize, edit: &dyn Fn(&mut Network)| {
+            let mut net = bank(1, n, refs);
+            edit(&mut net);
+            net
+        };
+        let nothing = |_: &mut Network| {};
+        // (a string, its length)
+        let mut nets: Vec<(String, Network)> = Vec::new();
+        for n in [16, 17, 23, 100, 1000, 1025, 3001] {
+            nets.push((format!("{n}"), one(n, &nothing)));
+        }
+        let free_left = |net: &mut Network| drop(net.links.remove(0));
+        let free_right = |net: &mut Network| drop(net.links.pop());
+        let free_both = |net: &mut Network| {
+            free_left(net);
+            free_right(net);
+        };
+        // the grounds' terms before (first MAS) or after (last) the inner link's, and their
+        // links declared from the MAS to the SOL
+        let swapped = |net: &mut Network| {
+            net.links.swap(0, 1);
+            let n = net.links.len();
+            net.links.swap(n - 2, n - 1);
+        };
+        let turned = |net: &mut Network| {
+            let n = net.links.len();
+            for l in [0, n - 1] {
+                let link = &mut net.links[l];
+                (link.a, link.b) = (link.b, link.a);
+            }
+        };
+        // two inner links declared the other way round: MAS 6 sums its right link first
+        let inner = |net: &mut Network| net.links.swap(6, 7);
+        type Edit<'a> = &'a dyn Fn(&mut Network);
+        let edits: [(&str, Edit); 6] = [
+            ("free left", &free_left),
+            ("free right", &free_right),
+            ("free ends", &free_both),
+            ("grounds swapped", &swapped),
+            ("grounds turned", &turned),
+            ("inner swapped", &inner),
+        ];
+        for (name, edit) in edits {
+            for n in [17, 2100] {
+                nets.push((format!("{n} {name}"), one(n, edit)));
+            }
+        }
+        // per-MAS inertias: reciprocals of powers of two (multiplied), any (divided)
+        for (name, m) in [("M 1/2^k", [0.5, 1.0, 4.0]), ("M any", [1.0, 1.3, 2.9])] {
+            let inertias = |net: &mut Network| {
+                for (i, mat) in net.materials.iter_mut().enumerate() {
+                    if let Material::Mas { m: mass, .. } = mat {
+                        *mass = m[i % 3];
+                    }
+                }
+            };
+            nets.push((format!("1500 {name}"), one(1500, &inertias)));
+        }
+        // a hammer (a MAS and a BUT link, around the string), inputs on two MAS (fixes)
+        let struck = |net: &mut Network| {
+            let hammer = net.add_material(Material::Mas {
+                m: 3.0,
+                x0: 0.5,
+                v0: -0.01,
+            });
+            let but = Interaction::But {
+                k: 0.3,
+                z: 1e-3,
+                s: 0.0,
+            };
+            net.add_link(but, hammer, MatId(40));
+            net.add_force(MatId(7), Signal::Impulse { at: 9, amp: 0.1 });
+            net.add_force(MatId(1200), Signal::Constant(1e-4));
+        };
+        nets.push(("1300 struck".into(), one(1300, &struck)));
+        // strings of their own stiffnesses, each a sheet; a string and a membrane
+        let own = |s: usize| Interaction::Ref {
+            k: 0.1 + s as f64 / 100.0,
+            z: 1e-4,
+        };
+        nets.push(("12 x 40".into(), bank(12, 40, own)));
+        let mut mixed = bank(3, 200, own);
+        mixed.append(&membrane(6, 20, |_| 1.0));
+        nets.push(("3 x 200 and a membrane".into(), mixed));
+        for (name, mut net) in nets {
+            let expected = match name.as_str() {
+                "12 x 40" => 12,
+                "3 x 200 and a membrane" => 4,
+                _ => 1,
+            };
+            assert_eq!(sheets(&net), expected, "{name}");
+            let last = LinkId(net.links.len() as u32 - 1);
+            net.add_force_output(last);
+            net.add_force_output(LinkId(1));
+            net.add_force(MatId(0), Signal::Impulse { at: 30, amp: -0.1 });
+            let mut grid = Engine::new(&net);
+            let mut gather = grid.clone();
+            gather.k.grid = None;
+            let mut threaded = grid.clone();
+            threaded.set_parallel_threshold(0);
+            threaded.set_threads(3);
+            let mut moved = false;
+            for block in [1, 97, 1024, 5] {
+                let mut a = vec![0.0; block * grid.channels()];
+                let (mut b, mut c) = (a.clone(), a.clone());
+                grid.process(block, &mut a).unwrap();
+                gather.process(block, &mut b).unwrap();
+                threaded.process(block, &mut c).unwrap();
+                let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+                assert!(bits(&a) == bits(&b), "{name}, block {block}");
+                assert!(bits(&c) == bits(&b), "{name}, block {block}, threads");
+                moved |= a.iter().any(|&v| v != 0.0);
+                for l in 0..net.links.len() {
+                    let l = LinkId(l as u32);
+                    assert_eq!(grid.link_force(l).to_bits(), gather.link_force(l).to_bits());
+                }
+            }
+            assert!(moved, "{name}: the outputs never moved");
+        }
+        // not strings the grid step takes: an inner link declared from its right MAS to its
+        // left, of another law, of another stiffness; a damper on each MAS (`air`)
+        let turned_inner = |net: &mut Network| {
+            let link = &mut net.links[50];
+            (link.a, link.b) = (link.b, link.a);
+        };
+        assert_eq!(sheets(&one(100, &turned_inner)), 0);
+        let res = |net: &mut Network| net.links[50].law = Interaction::Res { k: 0.1 };
+        assert_eq!(sheets(&one(100, &res)), 0);
+        let stiffer = |net: &mut Network| net.links[50].law = Interaction::Ref { k: 0.2, z: 1e-4 };
+        assert_eq!(sheets(&one(100, &stiffer)), 0);
+        let air = |net: &mut Network| {
+            let ground = MatId(100);
+            for i in 0..100 {
+                net.add_link(Interaction::Fro { z: 1e-3 }, ground, MatId(i));
+            }
+        };
+        assert_eq!(sheets(&one(100, &air)), 0);
+        assert_eq!(sheets(&one(15, &nothing)), 0);
     }
 
     /// On threads, the grid's rows are cut into shares of consecutive rows, one per thread, and

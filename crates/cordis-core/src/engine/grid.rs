@@ -1,4 +1,4 @@
-//! The grid step: membranes, row by row, with every force in registers.
+//! The grid step: membranes and strings, row by row, with every force in registers.
 //!
 //! A membrane is a grid of `rows x cols` MAS in consecutive storage slots (row `r`, column `c` at
 //! slot `base + r cols + c`), each tied to its four neighbours by REF links of one `K` and `Z`,
@@ -57,6 +57,18 @@
 //! The loads and shuffles are AVX-512 (an [`Avx512`] token is the CPU's proof);
 //! `tests/engine.rs` compares every step with the reference, and `engine.rs`'s tests with the
 //! gather step.
+//!
+//! **Strings.** A string is a sheet too ([`Sheet::string_at`]): at least [`COLS_MIN`] MAS in
+//! consecutive storage slots, each tied to the next by a REF link of one `K` and `Z` (end 1 the
+//! MAS before), each summing its links to the MAS before and after it (in either order: two
+//! terms from `+0.0` commute, see [`Sheet::piece`]), its first and last MAS tied to a SOL or
+//! free, any other terms a fix. Its "rows" are pieces of about [`PIECE`] MAS one after the other
+//! (`Sheet::starts`), which the threads share as they share a membrane's rows: a piece reads the
+//! MAS before and after it, as a membrane's row reads the rows above and below. Eight MAS at a
+//! time, each velocity computed once, each link once (shifted by a lane for the MAS on its
+//! right), `F(n) = (0 + f_left) - f_right`, the update: no force buffer, so a string of 10,000
+//! MAS runs from the L2 cache at the speed one of 1,000 had from the L1 cache
+//! (docs/BENCHMARKS.md, eighteenth session).
 
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
@@ -67,7 +79,7 @@ use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
 
 use super::{by_div, by_inv, Forces, Kernel, Law, LinkLaw, MasLaw, Positions, RefLaw, Roles, Run};
 use super::{Claim, State, NEG};
-use crate::{Material, Network};
+use crate::{Interaction, Material, Network};
 
 /// Fewest columns (so that a row has at least one whole block and its tail) and rows.
 const COLS_MIN: usize = 2 * LANES;
@@ -81,6 +93,13 @@ const CHUNK_MAS: usize = 8192;
 /// Fewest chunks per thread, where there are rows enough: so that the threads of a small
 /// membrane can help each other too (and the tests' membranes claim chunks).
 const CHUNKS_MIN: usize = 4;
+
+/// MAS per row of a string (see [`Sheet::string_at`]): a string is cut into rows of about as many
+/// MAS, which the threads share as they share a membrane's rows.
+const PIECE: usize = 1024;
+
+/// No SOL: the free end of a string ([`Sheet::left`], [`Sheet::right`]).
+const FREE: u32 = u32::MAX;
 
 /// The sides of a MAS's link terms: the link to the MAS on its left, on its right, above, below.
 const LEFT: usize = 0;
@@ -154,7 +173,12 @@ struct Sheet {
     m: f64,
     div: bool,
     per_mas: bool,
-    /// The SOL (storage slot) on the left and on the right of each row, above and below each column
+    /// For a string ([`Sheet::string_at`]): where each row, a piece of the string, starts (its
+    /// offset from `base`), and the string's length; empty for a membrane, whose rows are `cols`
+    /// long (a string has no use for `top`, `bottom`, `mid`, `first`, `last`)
+    starts: Vec<usize>,
+    /// The SOL (storage slot) on the left and on the right of each row, above and below each
+    /// column (a string's: on the left of its row 0, on the right of its last row, or [`FREE`])
     left: Vec<u32>,
     right: Vec<u32>,
     top: Vec<u32>,
@@ -209,10 +233,19 @@ fn other_end(k: &Kernel, e: u32) -> Option<usize> {
     end.get((e & !NEG) as usize).map(|&o| o as usize)
 }
 
-/// Whether the MAS of `net`, in declaration order, may hold a membrane the grid step takes: one
-/// MAS tied to the next and to one at least [`COLS_MIN`] further, itself tied to the next
-/// (`Grid::new` decides; a cheap test, so that only such networks
-/// are built with their MAS in declaration order, see [`super::Mobiles`]).
+/// Whether link `l` is a REF of stiffness and viscosity `(K, Z)` (`law`: each link's).
+fn is_ref(k: &Kernel, law: &[Law], (kk, zz): (f64, f64), l: usize) -> bool {
+    l < k.nl
+        && law[l] == Law::Ref
+        && k.lk[l].to_bits() == kk.to_bits()
+        && k.lz[l].to_bits() == zz.to_bits()
+}
+
+/// Whether the MAS of `net`, in declaration order, may hold a membrane or a string the grid step
+/// takes: one MAS tied to the next and to one at least [`COLS_MIN`] further, itself tied to the
+/// next, or [`COLS_MIN`] MAS each tied to the next by a REF link (`Grid::new` decides; a cheap
+/// test, so that only such networks are built with their MAS in declaration order, see
+/// [`super::Mobiles`]).
 pub(super) fn may_hold(net: &Network) -> bool {
     let mut rank = vec![u32::MAX; net.materials.len()];
     let mut n = 0;
@@ -222,22 +255,29 @@ pub(super) fn may_hold(net: &Network) -> bool {
         }
     }
     let n = n as usize;
-    if n < COLS_MIN * ROWS_MIN {
+    if n < COLS_MIN {
         return false;
     }
     // each link between two MAS, as (first, second) in declaration order
     let pairs = net.links.iter().filter_map(|link| {
         let (a, b) = (*rank.get(link.a.index())?, *rank.get(link.b.index())?);
-        (a != u32::MAX && b != u32::MAX).then(|| (a.min(b) as usize, a.max(b) as usize))
+        (a != u32::MAX && b != u32::MAX)
+            .then(|| (&link.law, (a.min(b) as usize, a.max(b) as usize)))
     });
-    // whether a link ties each MAS to the next
-    let mut next = vec![false; n];
-    for (lo, hi) in pairs.clone() {
+    // whether a link ties each MAS to the next, and a REF link does
+    let (mut next, mut next_ref) = (vec![false; n], vec![false; n]);
+    for (law, (lo, hi)) in pairs.clone() {
         next[lo] |= hi == lo + 1;
+        next_ref[lo] |= hi == lo + 1 && matches!(law, Interaction::Ref { .. });
     }
-    pairs
-        .clone()
-        .any(|(lo, hi)| hi - lo >= COLS_MIN && next[lo] && next[hi])
+    // a membrane, or a string: `COLS_MIN` MAS each tied to the next by a REF link
+    let string = next_ref
+        .split(|&tied| !tied)
+        .any(|run| run.len() + 1 >= COLS_MIN);
+    string
+        || pairs
+            .clone()
+            .any(|(_, (lo, hi))| hi - lo >= COLS_MIN && next[lo] && next[hi])
 }
 
 /// The `x(n+1)` of one row: the whole state, the row below's `x(n)` and `x(n-1)`, and the
@@ -269,23 +309,39 @@ impl Grid {
         // each sheet's first MAS: the first after the sheet before tied to the next and to one a
         // row further, itself tied to the next; each such row length in turn (a link across the
         // membrane, or to a MAS after it, can tie its first MAS further than a row)
-        let candidate = |s: &usize| {
-            let s = *s;
-            tied_next(s) && after(s).any(|o| o - s >= COLS_MIN && tied_next(o))
-        };
-        let (mut sheets, mut from, mut refused) = (Vec::<Sheet>::new(), 0, 0);
-        while let Some(base) = (from..k.n_mas).find(candidate) {
+        let membrane = |s: usize| after(s).any(|o| o - s >= COLS_MIN && tied_next(o));
+        // or the first of `COLS_MIN` MAS each tied to the next, a string's, from `strings_from`
+        // on (a run tried as a string is not tried again from its other MAS)
+        let string = |s: usize| s + COLS_MIN <= k.n_mas && (s..s + COLS_MIN - 1).all(tied_next);
+        let law = k.laws();
+        let (mut sheets, mut from, mut refused, mut strings_from) = (Vec::<Sheet>::new(), 0, 0, 0);
+        while let Some(base) = (from..k.n_mas)
+            .find(|&s| tied_next(s) && (membrane(s) || (s >= strings_from && string(s))))
+        {
             let mut widths: Vec<usize> = after(base)
                 .map(|o| o - base)
                 .filter(|&d| d >= COLS_MIN)
                 .collect();
             widths.sort_unstable();
             widths.dedup();
-            match (widths.into_iter()).find_map(|cols| Sheet::at(k, cpu, base, cols)) {
+            let found = (widths.into_iter()).find_map(|cols| Sheet::at(k, cpu, &law, base, cols));
+            let found = found.or_else(|| {
+                if base < strings_from || !string(base) {
+                    return None;
+                }
+                let mut end = base + 1;
+                while end < k.n_mas && tied_next(end - 1) {
+                    end += 1;
+                }
+                strings_from = end;
+                Sheet::string_at(k, cpu, &law, base..end)
+            });
+            match found {
                 Some(sheet) => {
                     from = sheet.slots(&(0..sheet.rows)).end;
                     sheets.push(sheet);
                 }
+                None if !membrane(base) => from = base + 1,
                 None if refused < REFUSED_MAX => (from, refused) = (base + 1, refused + 1),
                 None => break,
             }
@@ -332,7 +388,7 @@ impl Grid {
             outside,
             sheets,
         };
-        let n: usize = g.sheets.iter().map(|s| s.rows * s.cols).sum();
+        let n: usize = g.sheets.iter().map(|s| s.slots(&(0..s.rows)).len()).sum();
         let around = g.outside.iter().map(|o| o.len()).sum::<usize>()
             + g.outside_runs
                 .iter()
@@ -342,17 +398,17 @@ impl Grid {
         (around <= n / OUTSIDE_SHARE).then_some(g)
     }
 
-    /// How many membranes the grid steps.
+    /// How many membranes and strings the grid steps.
     #[cfg(test)]
     pub(super) fn sheets(&self) -> usize {
         self.sheets.len()
     }
 
-    /// The scratch one thread needs: five row buffers of the widest sheet (velocities of two
+    /// The scratch one thread needs: five row buffers of the widest membrane (velocities of two
     /// rows, the links up, the grounds' `x(n)` and `x(n-1)` of the top or bottom row).
     pub(super) fn scratch_len(&self) -> usize {
-        self.sheets
-            .iter()
+        (self.sheets.iter())
+            .filter(|s| s.starts.is_empty())
             .map(|s| 5 * s.stride())
             .max()
             .unwrap_or(0)
@@ -364,7 +420,10 @@ impl Grid {
     /// each, and at least [`CHUNKS_MIN`] where the rows allow.
     pub(super) fn partition(&self, threads: usize) -> Vec<Vec<Range<usize>>> {
         let rows = self.row0[self.sheets.len()];
-        let cols = |r: usize| self.sheets[self.row0.partition_point(|&r0| r0 <= r) - 1].cols;
+        let cols = |r: usize| {
+            let i = self.row0.partition_point(|&r0| r0 <= r) - 1;
+            self.sheets[i].row_len(r - self.row0[i])
+        };
         let cost = |r: usize| cols(r) as u64;
         (super::split(rows, threads.max(1), cost).into_iter())
             .map(|share| {
@@ -449,8 +508,58 @@ impl Grid {
 }
 
 impl Sheet {
+    /// A sheet of the MAS `mine` (`rows x cols` of them, `cols` 0 for a string), of the law of
+    /// the first term of its first MAS and of their inertia, with no border, fix or order yet.
+    fn blank(
+        k: &Kernel,
+        cpu: Avx512,
+        mine: Range<usize>,
+        rows: usize,
+        cols: usize,
+    ) -> Option<Sheet> {
+        let uniform = |v: &[f64]| {
+            v.iter()
+                .all(|m| m.to_bits() == v[0].to_bits())
+                .then(|| v[0])
+        };
+        // (`m` is unused with `per_mas`)
+        let (m, div, per_mas) = match &k.mas {
+            MasLaw::UniformInv(inv) => (*inv, false, false),
+            MasLaw::UniformDiv(m) => (*m, true, false),
+            MasLaw::Inv(inv) => {
+                uniform(&inv[mine.clone()]).map_or((0.0, false, true), |m| (m, false, false))
+            }
+            MasLaw::Div(ms) => {
+                uniform(&ms[mine.clone()]).map_or((0.0, true, true), |m| (m, true, false))
+            }
+        };
+        let first = (*terms(k, mine.start).first()? & !NEG) as usize;
+        Some(Sheet {
+            cpu,
+            base: mine.start,
+            rows,
+            cols,
+            k: *k.lk.get(first)?,
+            z: *k.lz.get(first)?,
+            m,
+            div,
+            per_mas,
+            starts: Vec::new(),
+            left: vec![0; rows],
+            right: vec![0; rows],
+            top: vec![0; cols],
+            bottom: vec![0; cols],
+            mid: vec![Order::CANONICAL; rows],
+            first: vec![Order::CANONICAL; rows],
+            last: vec![Order::CANONICAL; rows],
+            fixes: Vec::new(),
+            terms: Vec::new(),
+            fix_runs: Vec::new(),
+        })
+    }
+
     /// The membrane of `cols` columns from MAS `base` on, if `k` has one there.
-    fn at(k: &Kernel, cpu: Avx512, base: usize, cols: usize) -> Option<Sheet> {
+    fn at(k: &Kernel, cpu: Avx512, law: &[Law], base: usize, cols: usize) -> Option<Sheet> {
         let link = |e: u32| (e & !NEG) as usize;
         // down the rows whose first MAS is tied to the next row's
         let first_of = |r: usize| base + r * cols;
@@ -465,57 +574,10 @@ impl Sheet {
         if rows < ROWS_MIN {
             return None;
         }
-        let n = rows * cols;
-        let uniform = |v: &[f64]| {
-            v.iter()
-                .all(|m| m.to_bits() == v[0].to_bits())
-                .then(|| v[0])
-        };
-        let mine = base..base + n;
-        // (`m` is unused with `per_mas`)
-        let (m, div, per_mas) = match &k.mas {
-            MasLaw::UniformInv(inv) => (*inv, false, false),
-            MasLaw::UniformDiv(m) => (*m, true, false),
-            MasLaw::Inv(inv) => {
-                uniform(&inv[mine.clone()]).map_or((0.0, false, true), |m| (m, false, false))
-            }
-            MasLaw::Div(ms) => {
-                uniform(&ms[mine.clone()]).map_or((0.0, true, true), |m| (m, true, false))
-            }
-        };
-        let mut law = vec![Law::Ref; k.nl];
-        for run in &k.whole.runs {
-            law[run.start..run.end].fill(run.law);
-        }
-        let first = link(*terms(k, base).first()?);
-        let (kk, zz) = (*k.lk.get(first)?, *k.lz.get(first)?);
-        let same = |l: usize| {
-            l < k.nl
-                && law[l] == Law::Ref
-                && k.lk[l].to_bits() == kk.to_bits()
-                && k.lz[l].to_bits() == zz.to_bits()
-        };
-        let mut g = Sheet {
-            cpu,
-            base,
-            rows,
-            cols,
-            k: kk,
-            z: zz,
-            m,
-            div,
-            per_mas,
-            left: vec![0; rows],
-            right: vec![0; rows],
-            top: vec![0; cols],
-            bottom: vec![0; cols],
-            mid: vec![Order::CANONICAL; rows],
-            first: vec![Order::CANONICAL; rows],
-            last: vec![Order::CANONICAL; rows],
-            fixes: Vec::new(),
-            terms: Vec::new(),
-            fix_runs: Vec::new(),
-        };
+        let mine = base..base + rows * cols;
+        let mut g = Sheet::blank(k, cpu, mine.clone(), rows, cols)?;
+        let kz = (g.k, g.z);
+        let same = |l: usize| is_ref(k, law, kz, l);
         for s in mine.clone() {
             let (r, c) = ((s - base) / cols, (s - base) % cols);
             let e = terms(k, s);
@@ -601,6 +663,68 @@ impl Sheet {
         Some(g)
     }
 
+    /// The string of the MAS `run` (at least [`COLS_MIN`], each tied to the next), if the grid
+    /// step takes it: each MAS's first two terms are REF links of one `K` and `Z` to the MAS
+    /// before it (end 2) and after it (end 1), in either order, and the first and last MAS each
+    /// have, in place of its missing neighbour, a link to a SOL (either end) or nothing (a free
+    /// end); a MAS with more terms is a fix, and at most a quarter of them are (a string with a
+    /// damper on each MAS is left to the other steps). Its rows are pieces of about [`PIECE`]
+    /// MAS, `starts`.
+    fn string_at(k: &Kernel, cpu: Avx512, law: &[Law], run: Range<usize>) -> Option<Sheet> {
+        let n = run.len();
+        let rows = n.div_ceil(PIECE);
+        let mut g = Sheet::blank(k, cpu, run.clone(), rows, 0)?;
+        g.starts = (0..=rows).map(|r| r * n / rows).collect();
+        (g.left, g.right) = (vec![FREE], vec![FREE]);
+        let kz = (g.k, g.z);
+        for s in run.clone() {
+            let c = s - run.start;
+            let e = terms(k, s);
+            let neighbour = [(c > 0).then(|| s - 1), (c + 1 < n).then_some(s + 1)];
+            // the string's terms: a link to each neighbour and one to a SOL for a missing one
+            let (mut sides, mut t, mut ground) = ([LEFT; 2], 0, None);
+            for &term in e {
+                let (l, Some(o)) = ((term & !NEG) as usize, other_end(k, term)) else {
+                    break; // an input
+                };
+                let end = if term & NEG != 0 { k.la[l] } else { k.lb[l] };
+                if t == 2 || !is_ref(k, law, kz, l) || end as usize != s {
+                    break;
+                }
+                let side = if o >= k.n_mce {
+                    match neighbour.iter().position(Option::is_none) {
+                        Some(side) if ground.is_none() => {
+                            ground = Some(o as u32);
+                            side
+                        }
+                        _ => break,
+                    }
+                } else {
+                    match neighbour.iter().position(|&b| b == Some(o)) {
+                        Some(side) if (term & NEG != 0) == (side == RIGHT) => side,
+                        _ => break,
+                    }
+                };
+                if t == 1 && sides[0] == side {
+                    break;
+                }
+                (sides[t], t) = (side, t + 1);
+            }
+            if (0..2).any(|d| neighbour[d].is_some() && !sides[..t].contains(&d)) {
+                return None;
+            }
+            if c == 0 {
+                g.left[0] = ground.unwrap_or(FREE);
+            } else if c + 1 == n {
+                g.right[0] = ground.unwrap_or(FREE);
+            }
+            if t < e.len() {
+                g.fix(k, s, e)?;
+            }
+        }
+        (g.fixes.len() * 4 <= n).then_some(g)
+    }
+
     /// Makes MAS `s`, whose terms are `edges`, a fix.
     fn fix(&mut self, k: &Kernel, s: usize, edges: &[u32]) -> Option<()> {
         let from = self.terms.len() as u32;
@@ -628,19 +752,57 @@ impl Sheet {
         self.cols + 2 * LANES
     }
 
+    /// Where row `r` starts: its offset from `base` (`r` may be `rows`: the end of the last).
+    fn start(&self, r: usize) -> usize {
+        if self.starts.is_empty() {
+            r * self.cols
+        } else {
+            self.starts[r]
+        }
+    }
+
+    /// How many MAS row `r` has.
+    fn row_len(&self, r: usize) -> usize {
+        self.start(r + 1) - self.start(r)
+    }
+
     /// The storage slots of the MAS of `rows`.
     fn slots(&self, rows: &Range<usize>) -> Range<usize> {
-        self.base + rows.start * self.cols..self.base + rows.end * self.cols
+        self.base + self.start(rows.start)..self.base + self.start(rows.end)
     }
 
     /// Step `n` of `rows`: `x(n+1)` of their MAS into `next` (exactly their slots), from `x(n)`,
-    /// `x(n-1)` of every material, with `scratch` (at least five row buffers,
+    /// `x(n-1)` of every material, with `scratch` (for a membrane at least five row buffers,
     /// [`Grid::scratch_len`]).
     #[allow(clippy::too_many_arguments)] // the step's buffers
     fn step(
         &self,
         k: &Kernel,
         n: u64,
+        rows: Range<usize>,
+        cur: &[f64],
+        prev: &[f64],
+        next: &mut [f64],
+        scratch: &mut [f64],
+    ) {
+        let ms = self.inertias(k);
+        if self.starts.is_empty() {
+            self.membrane_rows(k, rows.clone(), cur, prev, next, scratch);
+        } else {
+            assert!(cur.len() == k.nm && prev.len() == k.nm && rows.end <= self.rows);
+            let lo = self.start(rows.start);
+            for r in rows.clone() {
+                let piece = self.start(r) - lo..self.start(r + 1) - lo;
+                self.piece_for_cpu(r, cur, prev, ms, &mut next[piece]);
+            }
+        }
+        self.fixes(k, n, rows, cur, prev, next, ms);
+    }
+
+    /// [`Sheet::step`]'s rows of a membrane.
+    fn membrane_rows(
+        &self,
+        k: &Kernel,
         rows: Range<usize>,
         cur: &[f64],
         prev: &[f64],
@@ -699,7 +861,20 @@ impl Sheet {
             self.row_for_cpu(r, args);
             std::mem::swap(&mut vc, &mut vn);
         }
-        // the MAS with terms of their own, term by term
+    }
+
+    /// [`Sheet::step`]'s fixes: the MAS of `rows` with terms of their own, term by term.
+    #[allow(clippy::too_many_arguments)] // the step's buffers
+    fn fixes(
+        &self,
+        k: &Kernel,
+        n: u64,
+        rows: Range<usize>,
+        cur: &[f64],
+        prev: &[f64],
+        next: &mut [f64],
+        ms: &[f64],
+    ) {
         let slots = self.slots(&rows);
         let lo = self
             .fixes
@@ -774,6 +949,144 @@ impl Sheet {
         {
             let _ = (r, args);
             unreachable!("a grid step needs an Avx512 token, which exists only on x86-64");
+        }
+    }
+
+    fn piece_for_cpu(&self, r: usize, x: &[f64], xp: &[f64], ms: &[f64], next: &mut [f64]) {
+        debug_assert_eq!(Some(self.cpu), Avx512::detect());
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `self.cpu` exists, so the CPU has AVX-512F (see `Avx512::detect`).
+        unsafe {
+            match (self.div, self.per_mas) {
+                (true, false) => self.piece::<true, false>(r, x, xp, ms, next),
+                (false, false) => self.piece::<false, false>(r, x, xp, ms, next),
+                (true, true) => self.piece::<true, true>(r, x, xp, ms, next),
+                (false, true) => self.piece::<false, true>(r, x, xp, ms, next),
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = (r, x, xp, ms, next);
+            unreachable!("a grid step needs an Avx512 token, which exists only on x86-64");
+        }
+    }
+
+    /// Row `r` of a string (a piece of it): `x(n+1)` into `next`, from the state `x`, `xp`. Each
+    /// MAS's `1 / M` or `M` is `Sheet::m`, or (`PER_MAS`) its own in `ms`. Eight MAS at a time:
+    /// the velocities of eight and of the next eight, their links on the right from them shifted
+    /// by a lane, the links on the left the same shifted the other way (the first from the block
+    /// before), `F(n) = (0 + f_left) - f_right` from `+0.0`, whichever order the MAS's two terms
+    /// come in: `(0 + a) + b = (0 + b) + a` bit for bit (addition commutes, and `0 + a` is `a`
+    /// but for `a = -0.0`, where both sides are `b`, or `+0.0` if `b` is `-0.0` too; only the
+    /// payload of a NaN, a blow-up either way, could tell). A free end has no term: its link is
+    /// a `+0.0` here, which changes no bit (`(0 + 0) - f = 0 - f`, `y - 0 = y`).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn piece<const DIV: bool, const PER_MAS: bool>(
+        &self,
+        r: usize,
+        x: &[f64],
+        xp: &[f64],
+        ms: &[f64],
+        next: &mut [f64],
+    ) {
+        let slots = self.slots(&(r..r + 1));
+        let (lo, hi, len) = (slots.start, slots.end, slots.len());
+        // every access below is within these (checked once here)
+        let (xr, pr) = (&x[slots.clone()], &xp[slots.clone()]);
+        let mr = if PER_MAS { &ms[slots] } else { &[] };
+        let m_at = |c: usize| if PER_MAS { mr[c] } else { self.m };
+        assert!(next.len() == len && len >= COLS_MIN);
+        let (kk, zz) = (self.k, self.z);
+        let link = |xa: f64, va: f64, xb: f64, vb: f64| RefLaw::force(kk, zz, 0.0, xa, va, xb, vb);
+        // the neighbour (a storage slot) before the piece's first MAS and after its last, if any
+        let before = match (r, self.left[0]) {
+            (0, FREE) => None,
+            (0, g) => Some(g as usize),
+            _ => Some(lo - 1),
+        };
+        let after = match (r + 1 == self.rows, self.right[0]) {
+            (true, FREE) => None,
+            (true, g) => Some(g as usize),
+            _ => Some(hi),
+        };
+        let h0 = before.map_or(0.0, |b| link(x[b], x[b] - xp[b], xr[0], xr[0] - pr[0]));
+        // whole blocks: MAS `0..full`, the last of which has a right neighbour in the piece
+        let full = (len - 1) / LANES * LANES;
+        let mut hl = h0;
+        // SAFETY: every load and store is of 8 items from `c0 < full` (so `c0 + 8 <= full <
+        // len`) or, the next block's, from `c0 + 8` when `c0 + 16 <= len`, within `xr`, `pr`,
+        // `next` and with `PER_MAS` `mr` (`len` each, asserted above; `mr` sliced to `len`);
+        // else the next block's first item alone, at `c0 + 8 <= full < len`.
+        unsafe {
+            let (k8, z8, m8) = (
+                _mm512_set1_pd(kk),
+                _mm512_set1_pd(zz),
+                _mm512_set1_pd(self.m),
+            );
+            let zero = _mm512_setzero_pd();
+            let shift_next = _mm512_setr_epi64(1, 2, 3, 4, 5, 6, 7, 8);
+            let shift_prev = _mm512_setr_epi64(7, 8, 9, 10, 11, 12, 13, 14);
+            let mut xa = _mm512_loadu_pd(xr.as_ptr());
+            let mut pa = _mm512_loadu_pd(pr.as_ptr());
+            let mut va = _mm512_sub_pd(xa, pa);
+            let mut hprev = _mm512_set1_pd(h0);
+            let mut c0 = 0;
+            while c0 < full {
+                let (xn, pn) = if c0 + 2 * LANES <= len {
+                    let at = c0 + LANES;
+                    (
+                        _mm512_loadu_pd(xr.as_ptr().add(at)),
+                        _mm512_loadu_pd(pr.as_ptr().add(at)),
+                    )
+                } else {
+                    (
+                        _mm512_set1_pd(xr[c0 + LANES]),
+                        _mm512_set1_pd(pr[c0 + LANES]),
+                    )
+                };
+                let vn = _mm512_sub_pd(xn, pn);
+                let xb = _mm512_permutex2var_pd(xa, shift_next, xn);
+                let vb = _mm512_permutex2var_pd(va, shift_next, vn);
+                // `K (x1 - x2) + Z (v1 - v2)`, as `RefLaw::force`
+                let h = _mm512_add_pd(
+                    _mm512_mul_pd(k8, _mm512_sub_pd(xa, xb)),
+                    _mm512_mul_pd(z8, _mm512_sub_pd(va, vb)),
+                );
+                let left = _mm512_permutex2var_pd(hprev, shift_prev, h);
+                let f = _mm512_sub_pd(_mm512_add_pd(zero, left), h);
+                // `2 x - x' + F / M` (or `F (1 / M)`), as `by_div` (`by_inv`)
+                let m8 = if PER_MAS {
+                    _mm512_loadu_pd(mr.as_ptr().add(c0))
+                } else {
+                    m8
+                };
+                let by = if DIV {
+                    _mm512_div_pd(f, m8)
+                } else {
+                    _mm512_mul_pd(f, m8)
+                };
+                let out = _mm512_add_pd(_mm512_sub_pd(_mm512_add_pd(xa, xa), pa), by);
+                _mm512_storeu_pd(next.as_mut_ptr().add(c0), out);
+                (hprev, xa, pa, va) = (h, xn, pn, vn);
+                c0 += LANES;
+            }
+            if full > 0 {
+                let mut lanes = [0.0; LANES];
+                _mm512_storeu_pd(lanes.as_mut_ptr(), hprev);
+                hl = lanes[LANES - 1];
+            }
+        }
+        // the last MAS, one at a time, the last with the neighbour after the piece
+        for c in full..len {
+            let (x0, v0) = (xr[c], xr[c] - pr[c]);
+            let h = match (c + 1 < len, after) {
+                (true, _) => link(x0, v0, xr[c + 1], xr[c + 1] - pr[c + 1]),
+                (false, Some(a)) => link(x0, v0, x[a], x[a] - xp[a]),
+                (false, None) => 0.0,
+            };
+            next[c] = Self::update_as::<DIV>(x0, pr[c], (0.0 + hl) - h, m_at(c));
+            hl = h;
         }
     }
 
