@@ -5127,6 +5127,14 @@ mod tests {
             net.add_force(MatId(1200), Signal::Constant(1e-4));
         };
         nets.push(("1300 struck".into(), one(1300, &struck)));
+        // BUT strings (in contact where compressed, or always), free ends
+        for s in [0.0, 1e3] {
+            let but = |_| Interaction::But { k: 0.1, z: 1e-4, s };
+            nets.push((format!("17 BUT {s}"), bank(1, 17, but)));
+            let mut free = bank(1, 1500, but);
+            free_both(&mut free);
+            nets.push((format!("1500 BUT {s}, free ends"), free));
+        }
         // strings of their own stiffnesses, each a sheet; a string and a membrane
         let own = |s: usize| Interaction::Ref {
             k: 0.1 + s as f64 / 100.0,
@@ -5190,6 +5198,22 @@ mod tests {
         };
         assert_eq!(sheets(&one(100, &air)), 0);
         assert_eq!(sheets(&one(15, &nothing)), 0);
+        // a BUT link to a ground with the MAS at the other end than a neighbour's (its force is
+        // not odd in its ends); LNL strings (the gather step's)
+        let but = |_| Interaction::But {
+            k: 0.1,
+            z: 1e-4,
+            s: 0.0,
+        };
+        let mut turned_but = bank(1, 100, but);
+        turned(&mut turned_but);
+        assert_eq!(sheets(&bank(1, 100, but)), 1);
+        assert_eq!(sheets(&turned_but), 0);
+        let lnl = |_| Interaction::Lnl {
+            lk: Curve::new(&[(-0.01, -1e-3), (0.0, 0.0), (0.01, 2e-3)]).unwrap(),
+            lz: Curve::default(),
+        };
+        assert_eq!(sheets(&bank(1, 100, lnl)), 0);
     }
 
     /// On threads, the grid's rows are cut into shares of consecutive rows, one per thread, and

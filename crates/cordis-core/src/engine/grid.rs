@@ -59,10 +59,10 @@
 //! gather step.
 //!
 //! **Strings.** A string is a sheet too ([`Sheet::string_at`]): at least [`COLS_MIN`] MAS in
-//! consecutive storage slots, each tied to the next by a REF link of one `K` and `Z` (end 1 the
-//! MAS before), each summing its links to the MAS before and after it (in either order: two
-//! terms from `+0.0` commute, see [`Sheet::piece`]), its first and last MAS tied to a SOL or
-//! free, any other terms a fix. Its "rows" are pieces of about [`PIECE`] MAS one after the other
+//! consecutive storage slots, each tied to the next by a REF or BUT link of one `K`, `Z` (and
+//! `S`) (end 1 the MAS before), each summing its links to the MAS before and after it (in either
+//! order: two terms from `+0.0` commute, see [`Sheet::piece`]), its first and last MAS tied to a
+//! SOL or free, any other terms a fix. Its "rows" are pieces of about [`PIECE`] MAS one after the other
 //! (`Sheet::starts`), which the threads share as they share a membrane's rows: a piece reads the
 //! MAS before and after it, as a membrane's row reads the rows above and below. Eight MAS at a
 //! time, each velocity computed once, each link once (shifted by a lane for the MAS on its
@@ -77,8 +77,9 @@ use std::ops::Range;
 use crate::lanes::{Avx512, LANES};
 use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
 
-use super::{by_div, by_inv, Forces, Kernel, Law, LinkLaw, MasLaw, Positions, RefLaw, Roles, Run};
+use super::{by_div, by_inv, ButLaw, Forces, Kernel, Law, LinkLaw, MasLaw};
 use super::{Claim, State, NEG};
+use super::{Positions, RefLaw, Roles, Run};
 use crate::{Interaction, Material, Network};
 
 /// Fewest columns (so that a row has at least one whole block and its tail) and rows.
@@ -100,6 +101,26 @@ const PIECE: usize = 1024;
 
 /// No SOL: the free end of a string ([`Sheet::left`], [`Sheet::right`]).
 const FREE: u32 = u32::MAX;
+
+/// The law of a sheet's links, with its `K` and `Z` (`Sheet::k`, `Sheet::z`): a membrane's are
+/// REF; a string's REF or BUT (threshold `s`).
+#[derive(Clone, Copy, Debug)]
+enum Strand {
+    Ref,
+    But { s: f64 },
+}
+
+impl Strand {
+    /// The force of a link of this law, `K` and `Z` from its ends' positions and velocities
+    /// (`x - x'`), as the gather step computes it.
+    #[inline(always)]
+    fn force(self, (kk, zz): (f64, f64), xa: f64, va: f64, xb: f64, vb: f64) -> f64 {
+        match self {
+            Strand::Ref => RefLaw::force(kk, zz, 0.0, xa, va, xb, vb),
+            Strand::But { s } => ButLaw::force(kk, zz, s, xa, va, xb, vb),
+        }
+    }
+}
 
 /// The sides of a MAS's link terms: the link to the MAS on its left, on its right, above, below.
 const LEFT: usize = 0;
@@ -177,6 +198,8 @@ struct Sheet {
     /// offset from `base`), and the string's length; empty for a membrane, whose rows are `cols`
     /// long (a string has no use for `top`, `bottom`, `mid`, `first`, `last`)
     starts: Vec<usize>,
+    /// The law of the links (a membrane's: REF)
+    strand: Strand,
     /// The SOL (storage slot) on the left and on the right of each row, above and below each
     /// column (a string's: on the left of its row 0, on the right of its last row, or [`FREE`])
     left: Vec<u32>,
@@ -243,7 +266,7 @@ fn is_ref(k: &Kernel, law: &[Law], (kk, zz): (f64, f64), l: usize) -> bool {
 
 /// Whether the MAS of `net`, in declaration order, may hold a membrane or a string the grid step
 /// takes: one MAS tied to the next and to one at least [`COLS_MIN`] further, itself tied to the
-/// next, or [`COLS_MIN`] MAS each tied to the next by a REF link (`Grid::new` decides; a cheap
+/// next, or [`COLS_MIN`] MAS each tied to the next by a REF, BUT or LNL link (`Grid::new` decides; a cheap
 /// test, so that only such networks are built with their MAS in declaration order, see
 /// [`super::Mobiles`]).
 pub(super) fn may_hold(net: &Network) -> bool {
@@ -264,13 +287,14 @@ pub(super) fn may_hold(net: &Network) -> bool {
         (a != u32::MAX && b != u32::MAX)
             .then(|| (&link.law, (a.min(b) as usize, a.max(b) as usize)))
     });
-    // whether a link ties each MAS to the next, and a REF link does
+    // whether a link ties each MAS to the next, and a REF or BUT link does
     let (mut next, mut next_ref) = (vec![false; n], vec![false; n]);
     for (law, (lo, hi)) in pairs.clone() {
         next[lo] |= hi == lo + 1;
-        next_ref[lo] |= hi == lo + 1 && matches!(law, Interaction::Ref { .. });
+        next_ref[lo] |=
+            hi == lo + 1 && matches!(law, Interaction::Ref { .. } | Interaction::But { .. });
     }
-    // a membrane, or a string: `COLS_MIN` MAS each tied to the next by a REF link
+    // a membrane, or a string: `COLS_MIN` MAS each tied to the next by a REF or BUT link
     let string = next_ref
         .split(|&tied| !tied)
         .any(|run| run.len() + 1 >= COLS_MIN);
@@ -545,6 +569,7 @@ impl Sheet {
             div,
             per_mas,
             starts: Vec::new(),
+            strand: Strand::Ref,
             left: vec![0; rows],
             right: vec![0; rows],
             top: vec![0; cols],
@@ -664,19 +689,34 @@ impl Sheet {
     }
 
     /// The string of the MAS `run` (at least [`COLS_MIN`], each tied to the next), if the grid
-    /// step takes it: each MAS's first two terms are REF links of one `K` and `Z` to the MAS
-    /// before it (end 2) and after it (end 1), in either order, and the first and last MAS each
-    /// have, in place of its missing neighbour, a link to a SOL (either end) or nothing (a free
-    /// end); a MAS with more terms is a fix, and at most a quarter of them are (a string with a
-    /// damper on each MAS is left to the other steps). Its rows are pieces of about [`PIECE`]
-    /// MAS, `starts`.
+    /// step takes it: each MAS's first two terms are links of one law and parameters (REF or
+    /// BUT: [`Strand`]) to the MAS before it (end 2) and after it (end 1), in either order, and the first and last MAS each have, in place of its
+    /// missing neighbour, a link of that law to a SOL or nothing (a free end); a MAS with more
+    /// terms is a fix, and at most a quarter of them are (a string with a damper on each MAS is
+    /// left to the other steps). A REF link to a SOL may have the MAS at either end (its force is
+    /// odd in its ends, see the module's doc); a BUT link must have it where a neighbour would
+    /// (end 2 on the left, end 1 on the right), since its force is not. Its rows are
+    /// pieces of about [`PIECE`] MAS, `starts`.
     fn string_at(k: &Kernel, cpu: Avx512, law: &[Law], run: Range<usize>) -> Option<Sheet> {
         let n = run.len();
         let rows = n.div_ceil(PIECE);
         let mut g = Sheet::blank(k, cpu, run.clone(), rows, 0)?;
         g.starts = (0..=rows).map(|r| r * n / rows).collect();
         (g.left, g.right) = (vec![FREE], vec![FREE]);
-        let kz = (g.k, g.z);
+        let first = (*terms(k, run.start).first()? & !NEG) as usize;
+        g.strand = match *law.get(first)? {
+            Law::Ref => Strand::Ref,
+            Law::But => Strand::But { s: k.ls[first] },
+            _ => return None,
+        };
+        let same = |l: usize| {
+            l < k.nl
+                && law[l] == law[first]
+                && k.lk[l].to_bits() == k.lk[first].to_bits()
+                && k.lz[l].to_bits() == k.lz[first].to_bits()
+                && (law[l] != Law::But || k.ls[l].to_bits() == k.ls[first].to_bits())
+        };
+        let odd = law[first] == Law::Ref;
         for s in run.clone() {
             let c = s - run.start;
             let e = terms(k, s);
@@ -688,12 +728,15 @@ impl Sheet {
                     break; // an input
                 };
                 let end = if term & NEG != 0 { k.la[l] } else { k.lb[l] };
-                if t == 2 || !is_ref(k, law, kz, l) || end as usize != s {
+                if t == 2 || !same(l) || end as usize != s {
                     break;
                 }
                 let side = if o >= k.n_mce {
                     match neighbour.iter().position(Option::is_none) {
-                        Some(side) if ground.is_none() => {
+                        Some(side)
+                            if ground.is_none()
+                                && (odd || (term & NEG != 0) == (side == RIGHT)) =>
+                        {
                             ground = Some(o as u32);
                             side
                         }
@@ -957,11 +1000,22 @@ impl Sheet {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: `self.cpu` exists, so the CPU has AVX-512F (see `Avx512::detect`).
         unsafe {
+            // (a macro: each inertia law with each link law)
+            macro_rules! by_law {
+                ($div:literal, $per_mas:literal) => {
+                    match self.strand {
+                        Strand::Ref => self.piece::<$div, $per_mas, false>(r, x, xp, ms, next),
+                        Strand::But { .. } => {
+                            self.piece::<$div, $per_mas, true>(r, x, xp, ms, next)
+                        }
+                    }
+                };
+            }
             match (self.div, self.per_mas) {
-                (true, false) => self.piece::<true, false>(r, x, xp, ms, next),
-                (false, false) => self.piece::<false, false>(r, x, xp, ms, next),
-                (true, true) => self.piece::<true, true>(r, x, xp, ms, next),
-                (false, true) => self.piece::<false, true>(r, x, xp, ms, next),
+                (true, false) => by_law!(true, false),
+                (false, false) => by_law!(false, false),
+                (true, true) => by_law!(true, true),
+                (false, true) => by_law!(false, true),
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
@@ -982,7 +1036,7 @@ impl Sheet {
     /// a `+0.0` here, which changes no bit (`(0 + 0) - f = 0 - f`, `y - 0 = y`).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    fn piece<const DIV: bool, const PER_MAS: bool>(
+    fn piece<const DIV: bool, const PER_MAS: bool, const BUT: bool>(
         &self,
         r: usize,
         x: &[f64],
@@ -997,8 +1051,8 @@ impl Sheet {
         let mr = if PER_MAS { &ms[slots] } else { &[] };
         let m_at = |c: usize| if PER_MAS { mr[c] } else { self.m };
         assert!(next.len() == len && len >= COLS_MIN);
-        let (kk, zz) = (self.k, self.z);
-        let link = |xa: f64, va: f64, xb: f64, vb: f64| RefLaw::force(kk, zz, 0.0, xa, va, xb, vb);
+        let (kk, zz, strand) = (self.k, self.z, self.strand);
+        let link = |xa: f64, va: f64, xb: f64, vb: f64| strand.force((kk, zz), xa, va, xb, vb);
         // the neighbour (a storage slot) before the piece's first MAS and after its last, if any
         let before = match (r, self.left[0]) {
             (0, FREE) => None,
@@ -1024,6 +1078,10 @@ impl Sheet {
                 _mm512_set1_pd(zz),
                 _mm512_set1_pd(self.m),
             );
+            let s8 = _mm512_set1_pd(match strand {
+                Strand::But { s } => s,
+                _ => 0.0,
+            });
             let zero = _mm512_setzero_pd();
             let shift_next = _mm512_setr_epi64(1, 2, 3, 4, 5, 6, 7, 8);
             let shift_prev = _mm512_setr_epi64(7, 8, 9, 10, 11, 12, 13, 14);
@@ -1048,11 +1106,22 @@ impl Sheet {
                 let vn = _mm512_sub_pd(xn, pn);
                 let xb = _mm512_permutex2var_pd(xa, shift_next, xn);
                 let vb = _mm512_permutex2var_pd(va, shift_next, vn);
-                // `K (x1 - x2) + Z (v1 - v2)`, as `RefLaw::force`
-                let h = _mm512_add_pd(
-                    _mm512_mul_pd(k8, _mm512_sub_pd(xa, xb)),
-                    _mm512_mul_pd(z8, _mm512_sub_pd(va, vb)),
-                );
+                let h = if !BUT {
+                    // `K (x1 - x2) + Z (v1 - v2)`, as `RefLaw::force`
+                    _mm512_add_pd(
+                        _mm512_mul_pd(k8, _mm512_sub_pd(xa, xb)),
+                        _mm512_mul_pd(z8, _mm512_sub_pd(va, vb)),
+                    )
+                } else {
+                    // `K ((x1 - x2) + S) + Z (v1 - v2)` where `x2 - x1 < S`, else `+0.0`, as
+                    // `ButLaw::force`
+                    let f = _mm512_add_pd(
+                        _mm512_mul_pd(k8, _mm512_add_pd(_mm512_sub_pd(xa, xb), s8)),
+                        _mm512_mul_pd(z8, _mm512_sub_pd(va, vb)),
+                    );
+                    let on = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(_mm512_sub_pd(xb, xa), s8);
+                    _mm512_maskz_mov_pd(on, f)
+                };
                 let left = _mm512_permutex2var_pd(hprev, shift_prev, h);
                 let f = _mm512_sub_pd(_mm512_add_pd(zero, left), h);
                 // `2 x - x' + F / M` (or `F (1 / M)`), as `by_div` (`by_inv`)
