@@ -122,6 +122,34 @@ impl Strand {
     }
 }
 
+/// `x(n+1) = 2 x - x' + F / M` (or `F (1 / M)`) of eight MAS, as `by_div` (`by_inv`): `m8`
+/// every MAS's `M` (`DIV`) or `1 / M`, or (`PER_MAS`) theirs, `mr[c0..c0 + 8]`.
+///
+/// # Safety
+/// The CPU must have AVX-512F; with `PER_MAS`, `c0 + 8 <= mr.len()`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn update8<const DIV: bool, const PER_MAS: bool>(
+    x: __m512d,
+    xp: __m512d,
+    f: __m512d,
+    m8: __m512d,
+    mr: &[f64],
+    c0: usize,
+) -> __m512d {
+    let m8 = if PER_MAS {
+        _mm512_loadu_pd(mr.as_ptr().add(c0))
+    } else {
+        m8
+    };
+    let by = if DIV {
+        _mm512_div_pd(f, m8)
+    } else {
+        _mm512_mul_pd(f, m8)
+    };
+    _mm512_add_pd(_mm512_sub_pd(_mm512_add_pd(x, x), xp), by)
+}
+
 /// The sides of a MAS's link terms: the link to the MAS on its left, on its right, above, below.
 const LEFT: usize = 0;
 const RIGHT: usize = 1;
@@ -1124,18 +1152,7 @@ impl Sheet {
                 };
                 let left = _mm512_permutex2var_pd(hprev, shift_prev, h);
                 let f = _mm512_sub_pd(_mm512_add_pd(zero, left), h);
-                // `2 x - x' + F / M` (or `F (1 / M)`), as `by_div` (`by_inv`)
-                let m8 = if PER_MAS {
-                    _mm512_loadu_pd(mr.as_ptr().add(c0))
-                } else {
-                    m8
-                };
-                let by = if DIV {
-                    _mm512_div_pd(f, m8)
-                } else {
-                    _mm512_mul_pd(f, m8)
-                };
-                let out = _mm512_add_pd(_mm512_sub_pd(_mm512_add_pd(xa, xa), pa), by);
+                let out = update8::<DIV, PER_MAS>(xa, pa, f, m8, mr, c0);
                 _mm512_storeu_pd(next.as_mut_ptr().add(c0), out);
                 (hprev, xa, pa, va) = (h, xn, pn, vn);
                 c0 += LANES;
@@ -1247,19 +1264,8 @@ impl Sheet {
                 } else {
                     _mm512_sub_pd(_mm512_add_pd(f, u), d)
                 };
-                // `2 x - x' + F / M` (or `F (1 / M)`), as `by_div` (`by_inv`)
                 let p = _mm512_loadu_pd(pr.as_ptr().add(c0));
-                let m8 = if PER_MAS {
-                    _mm512_loadu_pd(mr.as_ptr().add(c0))
-                } else {
-                    m8
-                };
-                let by = if DIV {
-                    _mm512_div_pd(f, m8)
-                } else {
-                    _mm512_mul_pd(f, m8)
-                };
-                let out = _mm512_add_pd(_mm512_sub_pd(_mm512_add_pd(xa, xa), p), by);
+                let out = update8::<DIV, PER_MAS>(xa, p, f, m8, mr, c0);
                 _mm512_storeu_pd(next.as_mut_ptr().add(c0), out);
                 hprev = h;
                 (xa, va) = (xn, vnx);
