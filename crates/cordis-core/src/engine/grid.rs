@@ -62,12 +62,12 @@
 //! consecutive storage slots, each tied to the next by a REF or BUT link of one `K`, `Z` (and
 //! `S`) (end 1 the MAS before), each summing its links to the MAS before and after it (in either
 //! order: two terms from `+0.0` commute, see [`Sheet::piece`]), its first and last MAS tied to a
-//! SOL or free, any other terms a fix. Its "rows" are pieces of about [`PIECE`] MAS one after the other
-//! (`Sheet::starts`), which the threads share as they share a membrane's rows: a piece reads the
-//! MAS before and after it, as a membrane's row reads the rows above and below. Eight MAS at a
-//! time, each velocity computed once, each link once (shifted by a lane for the MAS on its
-//! right), `F(n) = (0 + f_left) - f_right`, the update: no force buffer, so a string of 10,000
-//! MAS runs from the L2 cache at the speed one of 1,000 had from the L1 cache
+//! SOL or free, any other terms a fix. Its "rows" are pieces of about [`PIECE`] MAS one after
+//! the other (`Sheet::starts`), which the threads share as they share a membrane's rows: a piece
+//! reads the MAS before and after it, as a membrane's row reads the rows above and below. Eight
+//! MAS at a time, each velocity computed once, each link once (shifted by a lane for the MAS on
+//! its right), `F(n) = (0 + f_left) - f_right`, the update: no force buffer, so a string of
+//! 10,000 MAS runs from the L2 cache at the speed one of 1,000 had from the L1 cache
 //! (docs/BENCHMARKS.md, eighteenth session).
 
 #[cfg(target_arch = "x86_64")]
@@ -294,8 +294,8 @@ fn is_ref(k: &Kernel, law: &[Law], (kk, zz): (f64, f64), l: usize) -> bool {
 
 /// Whether the MAS of `net`, in declaration order, may hold a membrane or a string the grid step
 /// takes: one MAS tied to the next and to one at least [`COLS_MIN`] further, itself tied to the
-/// next, or [`COLS_MIN`] MAS each tied to the next by a REF, BUT or LNL link (`Grid::new` decides; a cheap
-/// test, so that only such networks are built with their MAS in declaration order, see
+/// next, or [`COLS_MIN`] MAS each tied to the next by a REF or BUT link (`Grid::new` decides; a
+/// cheap test, so that only such networks are built with their MAS in declaration order, see
 /// [`super::Mobiles`]).
 pub(super) fn may_hold(net: &Network) -> bool {
     let mut rank = vec![u32::MAX; net.materials.len()];
@@ -718,13 +718,13 @@ impl Sheet {
 
     /// The string of the MAS `run` (at least [`COLS_MIN`], each tied to the next), if the grid
     /// step takes it: each MAS's first two terms are links of one law and parameters (REF or
-    /// BUT: [`Strand`]) to the MAS before it (end 2) and after it (end 1), in either order, and the first and last MAS each have, in place of its
-    /// missing neighbour, a link of that law to a SOL or nothing (a free end); a MAS with more
-    /// terms is a fix, and at most a quarter of them are (a string with a damper on each MAS is
-    /// left to the other steps). A REF link to a SOL may have the MAS at either end (its force is
-    /// odd in its ends, see the module's doc); a BUT link must have it where a neighbour would
-    /// (end 2 on the left, end 1 on the right), since its force is not. Its rows are
-    /// pieces of about [`PIECE`] MAS, `starts`.
+    /// BUT: [`Strand`]) to the MAS before it (end 2) and after it (end 1), in either order, and
+    /// the first and last MAS each have, in place of its missing neighbour, a link of that law to
+    /// a SOL or nothing (a free end); a MAS with more terms is a fix, and at most a quarter of
+    /// them are (a string with a damper on each MAS is left to the other steps). A REF link to a
+    /// SOL may have the MAS at either end (its force is odd in its ends, see the module's doc); a
+    /// BUT link must have it where a neighbour would (end 2 on the left, end 1 on the right),
+    /// since its force is not. Its rows are pieces of about [`PIECE`] MAS, `starts`.
     fn string_at(k: &Kernel, cpu: Avx512, law: &[Law], run: Range<usize>) -> Option<Sheet> {
         let n = run.len();
         let rows = n.div_ceil(PIECE);
