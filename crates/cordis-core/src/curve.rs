@@ -149,6 +149,90 @@ impl<const N: usize> ExactCurve<N> {
     }
 }
 
+impl<const N: usize> ExactCurve<N> {
+    /// Whether `other` has the same points, bit for bit (so the same values everywhere).
+    pub(crate) fn same_bits(&self, other: &Self) -> bool {
+        let all = |c: &Self| c.xs.into_iter().chain(c.ys).chain(c.slopes);
+        all(self)
+            .zip(all(other))
+            .all(|(a, b)| a.to_bits() == b.to_bits())
+    }
+
+    /// Whether [`WideCurve::eval`] gives [`ExactCurve::eval`]'s bits: the zero curve does, and
+    /// a curve whose first segment has a width (`x[0] < x[1]`), a finite slope, and a first
+    /// value other than `-0.0` (see `WideCurve::eval`). Other curves (a jump at the first point,
+    /// a slope beyond the largest `f64`) are left to the gather step.
+    pub(crate) fn widens(&self) -> bool {
+        N < 2
+            || (self.xs[0] < self.xs[1]
+                && self.slopes[0].is_finite()
+                && self.ys[0].to_bits() != (-0.0f64).to_bits())
+    }
+
+    /// The curve with each number broadcast to eight lanes, for [`WideCurve::eval`].
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn wide(&self) -> WideCurve<N> {
+        use std::arch::x86_64::_mm512_set1_pd;
+        WideCurve {
+            xs: self.xs.map(|v| _mm512_set1_pd(v)),
+            ys: self.ys.map(|v| _mm512_set1_pd(v)),
+            slopes: self.slopes.map(|v| _mm512_set1_pd(v)),
+        }
+    }
+}
+
+/// An [`ExactCurve`] for eight abscissas at a time (AVX-512): [`ExactCurve::eval`] lane by lane,
+/// the same operations on the same operands, each `if` a masked select.
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+pub(crate) struct WideCurve<const N: usize> {
+    xs: [std::arch::x86_64::__m512d; N],
+    ys: [std::arch::x86_64::__m512d; N],
+    slopes: [std::arch::x86_64::__m512d; N],
+}
+
+#[cfg(target_arch = "x86_64")]
+impl<const N: usize> WideCurve<N> {
+    /// The value at each lane of `x`: [`ExactCurve::eval`]'s bits in each lane, for a curve
+    /// that [`ExactCurve::widens`]. `_CMP_LE_OQ` is Rust's `<=` (false when either side is NaN),
+    /// a `mask_blend(k, a, b)` is `if k { b } else { a }`, and `along` is the same `y + (x -
+    /// x0) * slope`, rounded after each operation (no fused multiply-add).
+    ///
+    /// Before the first point (or at a NaN) `ExactCurve::eval` gives `y[0]`; here `x` is first
+    /// raised to `x[0]` (`max_pd(x, x0)` gives its second operand `x0` for a NaN `x`, and for
+    /// two zeros), and segment 0 at `x[0]` is `y[0] + 0 * slope[0]`: `y[0]` plus a zero, `y[0]`
+    /// again since it is not `-0.0` and the slope is finite. The point after `x[0]` is further
+    /// (`x[0] < x[1]`), so segment 0 is the one chosen, and `after` is false (`x[0] < x[N-1]`).
+    /// At or above `x[0]` the raised `x` is `x`, but when `x` and `x[0]` are zeros of opposite
+    /// signs, where it is `x[0]`: segment 0 either way, and `x - x0` a zero either way, so the
+    /// value is `y[0]` plus a zero, `y[0]`, either way.
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512F.
+    #[inline(always)]
+    pub(crate) unsafe fn eval(&self, x: std::arch::x86_64::__m512d) -> std::arch::x86_64::__m512d {
+        use std::arch::x86_64::*;
+        if N < 2 {
+            return _mm512_setzero_pd(); // (`N` is 0: `ExactCurve::new` refuses 1)
+        }
+        let x = _mm512_max_pd(x, self.xs[0]);
+        let (mut x0, mut y, mut slope) = (self.xs[0], self.ys[0], self.slopes[0]);
+        for j in 1..N - 1 {
+            let past = _mm512_cmp_pd_mask::<_CMP_LE_OQ>(self.xs[j], x);
+            x0 = _mm512_mask_blend_pd(past, x0, self.xs[j]);
+            y = _mm512_mask_blend_pd(past, y, self.ys[j]);
+            slope = _mm512_mask_blend_pd(past, slope, self.slopes[j]);
+        }
+        let along = _mm512_add_pd(y, _mm512_mul_pd(_mm512_sub_pd(x, x0), slope));
+        let after = _mm512_cmp_pd_mask::<_CMP_LE_OQ>(self.xs[N - 1], x);
+        _mm512_mask_blend_pd(after, along, self.ys[N - 1])
+    }
+}
+
 /// What [`Curve::eval`] does when `count` points have an abscissa `<= x`: `y` when `flat` (before
 /// the first point, after the last), else `y + (x - x0) * slope` (the segment from point
 /// `count - 1`).
@@ -363,6 +447,18 @@ impl Curve {
 mod tests {
     use super::*;
 
+    /// `n` numbers spread evenly over `-half..half` (a linear congruential generator).
+    fn uniform(mut seed: u64, n: usize, half: f64) -> Vec<f64> {
+        (0..n)
+            .map(|_| {
+                seed = seed
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 * half - half
+            })
+            .collect()
+    }
+
     #[test]
     fn small_curves_evaluate_to_the_same_bits() {
         let curves = [
@@ -385,13 +481,7 @@ mod tests {
             (0..8).map(|i| (i as f64, (i * i) as f64)).collect(),
         ];
         let mut xs = vec![f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 0.0, -0.0, 1e300];
-        let mut seed = 12345u64;
-        for _ in 0..2000 {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            xs.push(((seed >> 11) as f64 / (1u64 << 53) as f64) * 12.0 - 6.0);
-        }
+        xs.extend(uniform(12345, 2000, 6.0));
         for pts in &curves {
             let c = Curve::new(pts).unwrap();
             xs.extend(pts.iter().map(|p| p.0));
@@ -433,6 +523,126 @@ mod tests {
         }
         let nine: Vec<(f64, f64)> = (0..9).map(|i| (i as f64, 0.0)).collect();
         assert!(SmallCurve::<8>::new(&Curve::new(&nine).unwrap()).is_none());
+    }
+
+    /// `WideCurve::eval` gives `Curve::eval`'s bits in every lane for the curves that widen,
+    /// at the points, next to them, at zeros, infinities and NaNs of both signs; the curves that
+    /// do not widen (a `-0.0` first value, a jump at the first point, an infinite first slope)
+    /// are refused because it would not.
+    #[test]
+    fn wide_curves_evaluate_to_the_same_bits() {
+        // (points, whether they widen)
+        let curves: [(Vec<(f64, f64)>, bool); 11] = [
+            (vec![], true),
+            (vec![(-1.0, 0.5), (2.0, 1.0)], true),
+            (vec![(-1.0, -0.1), (0.0, 0.0), (1.0, 0.1)], true),
+            (vec![(0.0, 0.0), (1.0, 1.0), (1.0, -0.0)], true),
+            (vec![(-0.01, -1e-3), (0.0, 0.0), (0.01, 2e-3)], true),
+            (
+                vec![(-0.5, 0.0), (-0.25, -0.05), (0.5, 0.05), (0.5, 0.0)],
+                true,
+            ),
+            (
+                vec![(-0.0, 0.0), (0.5, -1.0), (0.5, 2.0), (3.0, -0.0)],
+                true,
+            ),
+            (vec![(-1.0, -0.0), (1.0, 1.0)], false),
+            (vec![(0.0, -1.0), (0.0, 1.0)], false),
+            (vec![(-2.0, -0.0), (-2.0, 3.0), (5.0, -1.0)], false),
+            (vec![(-1e-300, -1e300), (1e-300, 1e300), (1.0, 0.0)], false),
+        ];
+        let neg_nan = f64::from_bits(f64::NAN.to_bits() | 1 << 63);
+        let mut xs = vec![
+            f64::NAN,
+            neg_nan,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            0.0,
+            -0.0,
+        ];
+        xs.extend(uniform(777, 500, 4.0));
+        for (pts, _) in &curves {
+            for &(x, _) in pts {
+                let up = f64::from_bits(x.to_bits() + 1);
+                xs.extend([x, -x, up, -up, x * 0.999, x * 1.001]);
+            }
+        }
+        let cpu = crate::lanes::Avx512::detect();
+        let mut refused_differ = 0;
+        for (pts, widens) in &curves {
+            let c = Curve::new(pts).unwrap();
+            // (each curve as the `ExactCurve` of its size, evaluated wide and one at a time)
+            let (got, want): (Vec<u64>, Vec<u64>) = match pts.len() {
+                0 => wide_bits(
+                    &ExactCurve::<0>::new(&c).unwrap(),
+                    &xs,
+                    *widens,
+                    cpu.is_some(),
+                ),
+                2 => wide_bits(
+                    &ExactCurve::<2>::new(&c).unwrap(),
+                    &xs,
+                    *widens,
+                    cpu.is_some(),
+                ),
+                3 => wide_bits(
+                    &ExactCurve::<3>::new(&c).unwrap(),
+                    &xs,
+                    *widens,
+                    cpu.is_some(),
+                ),
+                _ => wide_bits(
+                    &ExactCurve::<4>::new(&c).unwrap(),
+                    &xs,
+                    *widens,
+                    cpu.is_some(),
+                ),
+            };
+            let scalar: Vec<u64> = xs.iter().map(|&x| c.eval(x).to_bits()).collect();
+            assert_eq!(want, scalar, "{pts:?}: ExactCurve::eval");
+            if *widens {
+                for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+                    assert_eq!(g, w, "{pts:?} at {}", xs[i]);
+                }
+            } else if got != want {
+                refused_differ += 1;
+            }
+        }
+        // (each refused curve would give other bits somewhere: `+0.0` for a `-0.0` first value,
+        // the value after a jump at the first point, `0 * inf`, a NaN, before an infinite slope)
+        if cpu.is_some() {
+            assert_eq!(refused_differ, curves.iter().filter(|c| !c.1).count());
+        }
+    }
+
+    /// The bits of `e` at `xs`: `WideCurve::eval`'s (empty without AVX-512) and `eval`'s; checks
+    /// that `e.widens()` is `widens`.
+    fn wide_bits<const N: usize>(
+        e: &ExactCurve<N>,
+        xs: &[f64],
+        widens: bool,
+        avx512: bool,
+    ) -> (Vec<u64>, Vec<u64>) {
+        assert_eq!(e.widens(), widens);
+        let want = xs.iter().map(|&x| e.eval(x).to_bits()).collect();
+        let mut got = Vec::new();
+        #[cfg(target_arch = "x86_64")]
+        if avx512 {
+            use std::arch::x86_64::*;
+            for chunk in xs.chunks(8) {
+                let mut lanes = [0.0; 8];
+                lanes[..chunk.len()].copy_from_slice(chunk);
+                // SAFETY: the caller found AVX-512F (`Avx512::detect`).
+                unsafe {
+                    let v = e.wide().eval(_mm512_loadu_pd(lanes.as_ptr()));
+                    _mm512_storeu_pd(lanes.as_mut_ptr(), v);
+                }
+                got.extend(lanes[..chunk.len()].iter().map(|v| v.to_bits()));
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = avx512;
+        (got, want)
     }
 
     #[test]

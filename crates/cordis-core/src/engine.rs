@@ -199,6 +199,13 @@ enum Lnl {
     Any(Box<(Curve, Curve)>),
 }
 
+/// A function of an [`ExactPair`]'s two curves, generic in their point counts (so that it is
+/// compiled for each pair: [`ExactPair::visit`]).
+trait PairFn {
+    type Out;
+    fn call<const A: usize, const B: usize>(self, k: ExactCurve<A>, z: ExactCurve<B>) -> Self::Out;
+}
+
 /// Generates `ExactPair` (one variant per pair of point counts), its constructor and the
 /// dispatch of a run over it.
 macro_rules! exact_pairs {
@@ -223,6 +230,31 @@ macro_rules! exact_pairs {
             fn force(&self, d: f64, v: f64) -> f64 {
                 match self {
                     $(ExactPair::$v(k, z) => k.eval(d) + z.eval(v),)*
+                }
+            }
+
+            /// Whether both curves evaluate eight at a time ([`ExactCurve::widens`]).
+            fn widens(&self) -> bool {
+                match self {
+                    $(ExactPair::$v(k, z) => k.widens() && z.widens(),)*
+                }
+            }
+
+            /// Whether `other` has the same curves, bit for bit.
+            fn same_bits(&self, other: &ExactPair) -> bool {
+                match (self, other) {
+                    $((ExactPair::$v(k, z), ExactPair::$v(k2, z2)) => {
+                        k.same_bits(k2) && z.same_bits(z2)
+                    })*
+                    _ => false,
+                }
+            }
+
+            /// `f` called with the two curves, at their point counts.
+            #[inline(always)]
+            fn visit<F: PairFn>(self, f: F) -> F::Out {
+                match self {
+                    $(ExactPair::$v(k, z) => f.call(k, z),)*
                 }
             }
         }
@@ -5040,7 +5072,7 @@ mod tests {
         }
     }
 
-    /// The grid step takes strings of REF links too, each cut into rows (`engine/grid.rs`
+    /// The grid step takes strings of REF, BUT and LNL links too, each cut into rows (`engine/grid.rs`
     /// `Sheet::string_at`), and gives the gather step's bits on one thread and on three: every
     /// output and, after each block, every link force.
     #[test]
@@ -5135,6 +5167,54 @@ mod tests {
             free_both(&mut free);
             nets.push((format!("1500 BUT {s}, free ends"), free));
         }
+        // LNL strings: curves of 0, 2, 3 and 4 points whose abscissas the motion crosses (MAS
+        // `n / 4` starts at 0.01 a step), free ends, per-MAS inertias, a hammer and inputs, a
+        // hammer's RES link declared among the string's
+        let lnl = |k: &'static [(f64, f64)], z: &'static [(f64, f64)]| {
+            move |_| Interaction::Lnl {
+                lk: Curve::new(k).unwrap(),
+                lz: Curve::new(z).unwrap(),
+            }
+        };
+        let spring: &[(f64, f64)] = &[(-0.004, -4e-4), (0.0, 0.0), (0.004, 4e-4)];
+        let damper: &[(f64, f64)] = &[(-0.002, -2e-7), (0.0, 0.0), (0.002, 2e-7)];
+        let kinked: &[(f64, f64)] = &[(-0.01, -2e-3), (-1e-3, -1e-4), (2e-3, 3e-4), (0.01, 1e-3)];
+        let soft: &[(f64, f64)] = &[(-0.003, -3e-4), (0.003, 5e-4)];
+        let linear: &[(f64, f64)] = &[(-1.0, -1e-4), (1.0, 1e-4)];
+        nets.push(("100 LNL 3 3".into(), bank(1, 100, lnl(spring, damper))));
+        nets.push(("1100 LNL 3 3".into(), bank(1, 1100, lnl(spring, damper))));
+        nets.push(("700 LNL 4 2".into(), bank(1, 700, lnl(kinked, linear))));
+        nets.push(("40 LNL 2 0".into(), bank(1, 40, lnl(soft, &[]))));
+        nets.push(("300 LNL 0 3".into(), bank(1, 300, lnl(&[], damper))));
+        let mut free = bank(1, 1500, lnl(kinked, damper));
+        free_both(&mut free);
+        nets.push(("1500 LNL 4 3, free ends".into(), free));
+        let mut struck_lnl = bank(1, 1300, lnl(spring, linear));
+        struck(&mut struck_lnl);
+        swapped(&mut struck_lnl);
+        nets.push(("1300 LNL 3 2, struck, grounds swapped".into(), struck_lnl));
+        let mut heavy = bank(1, 900, lnl(soft, damper));
+        for (i, mat) in heavy.materials.iter_mut().enumerate() {
+            if let Material::Mas { m, .. } = mat {
+                *m = [1.0, 1.3, 2.9][i % 3];
+            }
+        }
+        nets.push(("900 LNL 2 3, M any".into(), heavy));
+        let mut cut = bank(1, 200, lnl(spring, damper));
+        let hammer = cut.add_material(Material::Mas {
+            m: 2.0,
+            x0: 0.1,
+            v0: 0.0,
+        });
+        cut.links.insert(
+            100,
+            crate::Link {
+                law: Interaction::Res { k: 1e-3 },
+                a: hammer,
+                b: MatId(50),
+            },
+        );
+        nets.push(("200 LNL, a RES link to a hammer".into(), cut));
         // strings of their own stiffnesses, each a sheet; a string and a membrane
         let own = |s: usize| Interaction::Ref {
             k: 0.1 + s as f64 / 100.0,
@@ -5199,7 +5279,8 @@ mod tests {
         assert_eq!(sheets(&one(100, &air)), 0);
         assert_eq!(sheets(&one(15, &nothing)), 0);
         // a BUT link to a ground with the MAS at the other end than a neighbour's (its force is
-        // not odd in its ends); LNL strings (the gather step's)
+        // not odd in its ends); the same for LNL, and LNL curves the grid step does not take (of
+        // 5 points, or not `ExactCurve::widens`: a first value of `-0.0`), or two of them
         let but = |_| Interaction::But {
             k: 0.1,
             z: 1e-4,
@@ -5209,11 +5290,30 @@ mod tests {
         turned(&mut turned_but);
         assert_eq!(sheets(&bank(1, 100, but)), 1);
         assert_eq!(sheets(&turned_but), 0);
-        let lnl = |_| Interaction::Lnl {
-            lk: Curve::new(&[(-0.01, -1e-3), (0.0, 0.0), (0.01, 2e-3)]).unwrap(),
-            lz: Curve::default(),
+        let mut turned_lnl = bank(1, 100, lnl(spring, damper));
+        turned(&mut turned_lnl);
+        assert_eq!(sheets(&turned_lnl), 0);
+        let five: &[(f64, f64)] = &[
+            (-2.0, -1.0),
+            (-1.0, 0.0),
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (2.0, 1.0),
+        ];
+        assert_eq!(sheets(&bank(1, 100, lnl(five, damper))), 0);
+        let minus_zero: &[(f64, f64)] = &[(-1.0, -0.0), (1.0, 1.0)];
+        assert_eq!(sheets(&bank(1, 100, lnl(spring, minus_zero))), 0);
+        let mut two = bank(1, 100, lnl(spring, damper));
+        two.links[50].law = lnl(kinked, damper)(0);
+        assert_eq!(sheets(&two), 0);
+        // (links of one curve in two LNL laws of the kernel are the same law to a string)
+        let pair = |k: &[(f64, f64)], z: &[(f64, f64)]| {
+            ExactPair::new(&Curve::new(k).unwrap(), &Curve::new(z).unwrap()).unwrap()
         };
-        assert_eq!(sheets(&bank(1, 100, lnl)), 0);
+        assert!(pair(spring, damper).same_bits(&pair(spring, damper)));
+        assert!(!pair(spring, damper).same_bits(&pair(spring, linear)));
+        let plus_zero: &[(f64, f64)] = &[(-1.0, 0.0), (1.0, 1.0)];
+        assert!(!pair(spring, minus_zero).same_bits(&pair(spring, plus_zero)));
     }
 
     /// On threads, the grid's rows are cut into shares of consecutive rows, one per thread, and

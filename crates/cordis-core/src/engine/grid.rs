@@ -59,25 +59,33 @@
 //! gather step.
 //!
 //! **Strings.** A string is a sheet too ([`Sheet::string_at`]): at least [`COLS_MIN`] MAS in
-//! consecutive storage slots, each tied to the next by a REF or BUT link of one `K`, `Z` (and
-//! `S`) (end 1 the MAS before), each summing its links to the MAS before and after it (in either
-//! order: two terms from `+0.0` commute, see [`Sheet::piece`]), its first and last MAS tied to a
-//! SOL or free, any other terms a fix. Its "rows" are pieces of about [`PIECE`] MAS one after
-//! the other (`Sheet::starts`), which the threads share as they share a membrane's rows: a piece
-//! reads the MAS before and after it, as a membrane's row reads the rows above and below. Eight
-//! MAS at a time, each velocity computed once, each link once (shifted by a lane for the MAS on
-//! its right), `F(n) = (0 + f_left) - f_right`, the update: no force buffer, so a string of
-//! 10,000 MAS runs from the L2 cache at the speed one of 1,000 had from the L1 cache
-//! (docs/BENCHMARKS.md, eighteenth session).
+//! consecutive storage slots, each tied to the next by a link of one law and parameters (end 1
+//! the MAS before): REF of one `K`, `Z`; BUT of one `K`, `Z`, `S`; or LNL of one pair of curves
+//! of 0 or 2 to 4 points that [`ExactCurve::widens`] ([`Strand`]). Each MAS sums its links to
+//! the MAS before and after it (in either order: two terms from `+0.0` commute, see
+//! [`Sheet::piece`]), its first and last MAS tied to a SOL or free, any other terms a fix. Its
+//! "rows" are pieces of about [`PIECE`] MAS one after the other (`Sheet::starts`), which the
+//! threads share as they share a membrane's rows: a piece reads the MAS before and after it, as
+//! a membrane's row reads the rows above and below. Eight MAS at a time, each velocity computed
+//! once, each link once (from the block and its neighbours on the right), `F(n) = (0 + f_left) -
+//! f_right`, the update: no force buffer, so a string of 10,000 MAS runs from the L2 cache at the
+//! speed one of 1,000 had from the L1 cache (docs/BENCHMARKS.md, eighteenth session). Each law
+//! is a [`StringLaw`] computing eight links with the gather step's operands and operations; an
+//! LNL string's curves are evaluated eight at a time by `curve.rs`'s `WideCurve` (whose doc
+//! shows they give `ExactCurve::eval`'s bits), in a piece compiled for its pair of point counts
+//! ([`ExactPair::visit`]).
 
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
 use std::ops::Range;
 
+use crate::curve::ExactCurve;
+#[cfg(target_arch = "x86_64")]
+use crate::curve::WideCurve;
 use crate::lanes::{Avx512, LANES};
 use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
 
-use super::{by_div, by_inv, ButLaw, Forces, Kernel, Law, LinkLaw, MasLaw};
+use super::{by_div, by_inv, ButLaw, ExactPair, Forces, Kernel, Law, LinkLaw, Lnl, MasLaw, PairFn};
 use super::{Claim, State, NEG};
 use super::{Positions, RefLaw, Roles, Run};
 use crate::{Interaction, Material, Network};
@@ -103,23 +111,212 @@ const PIECE: usize = 1024;
 const FREE: u32 = u32::MAX;
 
 /// The law of a sheet's links, with its `K` and `Z` (`Sheet::k`, `Sheet::z`): a membrane's are
-/// REF; a string's REF or BUT (threshold `s`).
+/// REF; a string's REF, BUT (threshold `s`) or LNL (curves of 0 or 2 to 4 points).
 #[derive(Clone, Copy, Debug)]
 enum Strand {
     Ref,
     But { s: f64 },
+    Lnl(ExactPair),
 }
 
-impl Strand {
-    /// The force of a link of this law, `K` and `Z` from its ends' positions and velocities
-    /// (`x - x'`), as the gather step computes it.
+/// A string's link law, as [`Sheet::piece`] computes it: one link at a time (the piece's ends)
+/// and eight (`force8`), each with the gather step's operands and operations.
+trait StringLaw: Copy {
+    /// The law's numbers broadcast to eight lanes, made once per piece.
+    #[cfg(target_arch = "x86_64")]
+    type Wide: Copy;
+
+    /// Whether [`Sheet::piece`] loads each block's neighbours on the right (from one slot
+    /// further) rather than shifting them by a lane from the block and the next: a REF or BUT
+    /// string runs 9-12 % slower so (the loads cross cache lines), an LNL string 7 % faster (its
+    /// curves keep the shuffle port busy; docs/BENCHMARKS.md).
+    const LOADS: bool;
+
+    /// The force of a link from its ends' positions and velocities (`x - x'`).
+    fn force(&self, xa: f64, va: f64, xb: f64, vb: f64) -> f64;
+
+    /// # Safety
+    /// The CPU must have AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn wide(&self) -> Self::Wide;
+
+    /// The forces of eight links, lane by lane as `force`.
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn force8(w: &Self::Wide, xa: __m512d, va: __m512d, xb: __m512d, vb: __m512d)
+        -> __m512d;
+}
+
+/// REF links of `K`, `Z`.
+#[derive(Clone, Copy)]
+struct RefLinks(f64, f64);
+
+impl StringLaw for RefLinks {
+    const LOADS: bool = false;
+
+    #[cfg(target_arch = "x86_64")]
+    type Wide = (__m512d, __m512d);
+
     #[inline(always)]
-    fn force(self, (kk, zz): (f64, f64), xa: f64, va: f64, xb: f64, vb: f64) -> f64 {
-        match self {
-            Strand::Ref => RefLaw::force(kk, zz, 0.0, xa, va, xb, vb),
-            Strand::But { s } => ButLaw::force(kk, zz, s, xa, va, xb, vb),
-        }
+    fn force(&self, xa: f64, va: f64, xb: f64, vb: f64) -> f64 {
+        RefLaw::force(self.0, self.1, 0.0, xa, va, xb, vb)
     }
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn wide(&self) -> Self::Wide {
+        (_mm512_set1_pd(self.0), _mm512_set1_pd(self.1))
+    }
+
+    /// `K (x1 - x2) + Z (v1 - v2)`, as `RefLaw::force`.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn force8(
+        &(k8, z8): &Self::Wide,
+        xa: __m512d,
+        va: __m512d,
+        xb: __m512d,
+        vb: __m512d,
+    ) -> __m512d {
+        _mm512_add_pd(
+            _mm512_mul_pd(k8, _mm512_sub_pd(xa, xb)),
+            _mm512_mul_pd(z8, _mm512_sub_pd(va, vb)),
+        )
+    }
+}
+
+/// BUT links of `K`, `Z`, `S`.
+#[derive(Clone, Copy)]
+struct ButLinks(f64, f64, f64);
+
+impl StringLaw for ButLinks {
+    const LOADS: bool = false;
+
+    #[cfg(target_arch = "x86_64")]
+    type Wide = (__m512d, __m512d, __m512d);
+
+    #[inline(always)]
+    fn force(&self, xa: f64, va: f64, xb: f64, vb: f64) -> f64 {
+        ButLaw::force(self.0, self.1, self.2, xa, va, xb, vb)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn wide(&self) -> Self::Wide {
+        (
+            _mm512_set1_pd(self.0),
+            _mm512_set1_pd(self.1),
+            _mm512_set1_pd(self.2),
+        )
+    }
+
+    /// `K ((x1 - x2) + S) + Z (v1 - v2)` where `x2 - x1 < S`, else `+0.0`, as `ButLaw::force`.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn force8(
+        &(k8, z8, s8): &Self::Wide,
+        xa: __m512d,
+        va: __m512d,
+        xb: __m512d,
+        vb: __m512d,
+    ) -> __m512d {
+        let f = _mm512_add_pd(
+            _mm512_mul_pd(k8, _mm512_add_pd(_mm512_sub_pd(xa, xb), s8)),
+            _mm512_mul_pd(z8, _mm512_sub_pd(va, vb)),
+        );
+        let on = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(_mm512_sub_pd(xb, xa), s8);
+        _mm512_maskz_mov_pd(on, f)
+    }
+}
+
+/// LNL links of an elastic curve of `A` points and a viscous one of `B`.
+#[derive(Clone, Copy)]
+struct LnlLinks<const A: usize, const B: usize>(ExactCurve<A>, ExactCurve<B>);
+
+impl<const A: usize, const B: usize> StringLaw for LnlLinks<A, B> {
+    const LOADS: bool = true;
+
+    #[cfg(target_arch = "x86_64")]
+    type Wide = (WideCurve<A>, WideCurve<B>);
+
+    /// `elastic(x1 - x2) + viscous(v1 - v2)`, as the gather step's `exact_run`.
+    #[inline(always)]
+    fn force(&self, xa: f64, va: f64, xb: f64, vb: f64) -> f64 {
+        self.0.eval(xa - xb) + self.1.eval(va - vb)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn wide(&self) -> Self::Wide {
+        (self.0.wide(), self.1.wide())
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn force8(
+        (ck, cz): &Self::Wide,
+        xa: __m512d,
+        va: __m512d,
+        xb: __m512d,
+        vb: __m512d,
+    ) -> __m512d {
+        _mm512_add_pd(
+            ck.eval(_mm512_sub_pd(xa, xb)),
+            cz.eval(_mm512_sub_pd(va, vb)),
+        )
+    }
+}
+
+/// [`Sheet::piece`] of an LNL string, compiled for its curves' point counts.
+struct LnlPiece<'a> {
+    sheet: &'a Sheet,
+    r: usize,
+    x: &'a [f64],
+    xp: &'a [f64],
+    ms: &'a [f64],
+    next: &'a mut [f64],
+}
+
+impl PairFn for LnlPiece<'_> {
+    type Out = ();
+
+    fn call<const A: usize, const B: usize>(self, k: ExactCurve<A>, z: ExactCurve<B>) {
+        let LnlPiece {
+            sheet,
+            r,
+            x,
+            xp,
+            ms,
+            next,
+        } = self;
+        sheet.piece_as(LnlLinks(k, z), r, x, xp, ms, next);
+    }
+}
+
+/// `[a[1], .., a[7], b[0]]`: the lanes of `a` shifted down by one, `b`'s first after them (the
+/// right neighbours of eight MAS from theirs and the next eight's). One `valignq`.
+///
+/// # Safety
+/// The CPU must have AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn next1(a: __m512d, b: __m512d) -> __m512d {
+    let (a, b) = (_mm512_castpd_si512(a), _mm512_castpd_si512(b));
+    _mm512_castsi512_pd(_mm512_alignr_epi64::<1>(b, a))
+}
+
+/// `[a[7], b[0], .., b[6]]`: `a`'s last lane, then the lanes of `b` shifted up by one (the left
+/// neighbours of eight MAS from theirs and the eight before's). One `valignq`.
+///
+/// # Safety
+/// The CPU must have AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn prev1(a: __m512d, b: __m512d) -> __m512d {
+    let (a, b) = (_mm512_castpd_si512(a), _mm512_castpd_si512(b));
+    _mm512_castsi512_pd(_mm512_alignr_epi64::<7>(b, a))
 }
 
 /// `x(n+1) = 2 x - x' + F / M` (or `F (1 / M)`) of eight MAS, as `by_div` (`by_inv`): `m8`
@@ -294,9 +491,9 @@ fn is_ref(k: &Kernel, law: &[Law], (kk, zz): (f64, f64), l: usize) -> bool {
 
 /// Whether the MAS of `net`, in declaration order, may hold a membrane or a string the grid step
 /// takes: one MAS tied to the next and to one at least [`COLS_MIN`] further, itself tied to the
-/// next, or [`COLS_MIN`] MAS each tied to the next by a REF or BUT link (`Grid::new` decides; a
-/// cheap test, so that only such networks are built with their MAS in declaration order, see
-/// [`super::Mobiles`]).
+/// next, or [`COLS_MIN`] MAS each tied to the next by a REF, BUT or LNL link (`Grid::new`
+/// decides; a cheap test, so that only such networks are built with their MAS in declaration
+/// order, see [`super::Mobiles`]).
 pub(super) fn may_hold(net: &Network) -> bool {
     let mut rank = vec![u32::MAX; net.materials.len()];
     let mut n = 0;
@@ -315,14 +512,17 @@ pub(super) fn may_hold(net: &Network) -> bool {
         (a != u32::MAX && b != u32::MAX)
             .then(|| (&link.law, (a.min(b) as usize, a.max(b) as usize)))
     });
-    // whether a link ties each MAS to the next, and a REF or BUT link does
+    // whether a link ties each MAS to the next, and a REF, BUT or LNL link does
     let (mut next, mut next_ref) = (vec![false; n], vec![false; n]);
     for (law, (lo, hi)) in pairs.clone() {
         next[lo] |= hi == lo + 1;
-        next_ref[lo] |=
-            hi == lo + 1 && matches!(law, Interaction::Ref { .. } | Interaction::But { .. });
+        next_ref[lo] |= hi == lo + 1
+            && matches!(
+                law,
+                Interaction::Ref { .. } | Interaction::But { .. } | Interaction::Lnl { .. }
+            );
     }
-    // a membrane, or a string: `COLS_MIN` MAS each tied to the next by a REF or BUT link
+    // a membrane, or a string: `COLS_MIN` MAS each tied to the next by a REF, BUT or LNL link
     let string = next_ref
         .split(|&tied| !tied)
         .any(|run| run.len() + 1 >= COLS_MIN);
@@ -717,13 +917,14 @@ impl Sheet {
     }
 
     /// The string of the MAS `run` (at least [`COLS_MIN`], each tied to the next), if the grid
-    /// step takes it: each MAS's first two terms are links of one law and parameters (REF or
-    /// BUT: [`Strand`]) to the MAS before it (end 2) and after it (end 1), in either order, and
-    /// the first and last MAS each have, in place of its missing neighbour, a link of that law to
-    /// a SOL or nothing (a free end); a MAS with more terms is a fix, and at most a quarter of
-    /// them are (a string with a damper on each MAS is left to the other steps). A REF link to a
-    /// SOL may have the MAS at either end (its force is odd in its ends, see the module's doc); a
-    /// BUT link must have it where a neighbour would (end 2 on the left, end 1 on the right),
+    /// step takes it: each MAS's first two terms are links of one law and parameters (REF, BUT,
+    /// or LNL of curves the same bit for bit and of the kernel's `Lnl::Exact` form, that widen:
+    /// [`Strand`]) to the MAS before it (end 2) and after it (end 1), in either order, and the
+    /// first and last MAS each have, in place of its missing neighbour, a link of that law to a
+    /// SOL or nothing (a free end); a MAS with more terms is a fix, and at most a quarter of them
+    /// are (a string with a damper on each MAS is left to the other steps). A REF link to a SOL
+    /// may have the MAS at either end (its force is odd in its ends, see the module's doc); a BUT
+    /// or LNL link must have it where a neighbour would (end 2 on the left, end 1 on the right),
     /// since its force is not. Its rows are pieces of about [`PIECE`] MAS, `starts`.
     fn string_at(k: &Kernel, cpu: Avx512, law: &[Law], run: Range<usize>) -> Option<Sheet> {
         let n = run.len();
@@ -735,16 +936,28 @@ impl Sheet {
         g.strand = match *law.get(first)? {
             Law::Ref => Strand::Ref,
             Law::But => Strand::But { s: k.ls[first] },
+            Law::Lnl => match &k.lnl[k.lnl_of[first] as usize] {
+                Lnl::Exact(pair) if pair.widens() => Strand::Lnl(*pair),
+                _ => return None,
+            },
             _ => return None,
         };
+        let strand = g.strand;
         let same = |l: usize| {
             l < k.nl
                 && law[l] == law[first]
                 && k.lk[l].to_bits() == k.lk[first].to_bits()
                 && k.lz[l].to_bits() == k.lz[first].to_bits()
-                && (law[l] != Law::But || k.ls[l].to_bits() == k.ls[first].to_bits())
+                && match strand {
+                    Strand::Ref => true,
+                    Strand::But { s } => k.ls[l].to_bits() == s.to_bits(),
+                    Strand::Lnl(pair) => match &k.lnl[k.lnl_of[l] as usize] {
+                        Lnl::Exact(other) => other.same_bits(&pair),
+                        _ => false,
+                    },
+                }
         };
-        let odd = law[first] == Law::Ref;
+        let odd = matches!(strand, Strand::Ref);
         for s in run.clone() {
             let c = s - run.start;
             let e = terms(k, s);
@@ -1024,31 +1237,45 @@ impl Sheet {
     }
 
     fn piece_for_cpu(&self, r: usize, x: &[f64], xp: &[f64], ms: &[f64], next: &mut [f64]) {
+        let (k, z) = (self.k, self.z);
+        match self.strand {
+            Strand::Ref => self.piece_as(RefLinks(k, z), r, x, xp, ms, next),
+            Strand::But { s } => self.piece_as(ButLinks(k, z, s), r, x, xp, ms, next),
+            Strand::Lnl(pair) => pair.visit(LnlPiece {
+                sheet: self,
+                r,
+                x,
+                xp,
+                ms,
+                next,
+            }),
+        }
+    }
+
+    /// [`Sheet::piece`] of links of `law`, compiled for each inertia law.
+    fn piece_as<L: StringLaw>(
+        &self,
+        law: L,
+        r: usize,
+        x: &[f64],
+        xp: &[f64],
+        ms: &[f64],
+        next: &mut [f64],
+    ) {
         debug_assert_eq!(Some(self.cpu), Avx512::detect());
         #[cfg(target_arch = "x86_64")]
         // SAFETY: `self.cpu` exists, so the CPU has AVX-512F (see `Avx512::detect`).
         unsafe {
-            // (a macro: each inertia law with each link law)
-            macro_rules! by_law {
-                ($div:literal, $per_mas:literal) => {
-                    match self.strand {
-                        Strand::Ref => self.piece::<$div, $per_mas, false>(r, x, xp, ms, next),
-                        Strand::But { .. } => {
-                            self.piece::<$div, $per_mas, true>(r, x, xp, ms, next)
-                        }
-                    }
-                };
-            }
             match (self.div, self.per_mas) {
-                (true, false) => by_law!(true, false),
-                (false, false) => by_law!(false, false),
-                (true, true) => by_law!(true, true),
-                (false, true) => by_law!(false, true),
+                (true, false) => self.piece::<true, false, L>(law, r, x, xp, ms, next),
+                (false, false) => self.piece::<false, false, L>(law, r, x, xp, ms, next),
+                (true, true) => self.piece::<true, true, L>(law, r, x, xp, ms, next),
+                (false, true) => self.piece::<false, true, L>(law, r, x, xp, ms, next),
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
-            let _ = (r, x, xp, ms, next);
+            let _ = (law, r, x, xp, ms, next);
             unreachable!("a grid step needs an Avx512 token, which exists only on x86-64");
         }
     }
@@ -1064,8 +1291,9 @@ impl Sheet {
     /// a `+0.0` here, which changes no bit (`(0 + 0) - f = 0 - f`, `y - 0 = y`).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    fn piece<const DIV: bool, const PER_MAS: bool, const BUT: bool>(
+    fn piece<const DIV: bool, const PER_MAS: bool, L: StringLaw>(
         &self,
+        law: L,
         r: usize,
         x: &[f64],
         xp: &[f64],
@@ -1079,8 +1307,7 @@ impl Sheet {
         let mr = if PER_MAS { &ms[slots] } else { &[] };
         let m_at = |c: usize| if PER_MAS { mr[c] } else { self.m };
         assert!(next.len() == len && len >= COLS_MIN);
-        let (kk, zz, strand) = (self.k, self.z, self.strand);
-        let link = |xa: f64, va: f64, xb: f64, vb: f64| strand.force((kk, zz), xa, va, xb, vb);
+        let link = |xa: f64, va: f64, xb: f64, vb: f64| law.force(xa, va, xb, vb);
         // the neighbour (a storage slot) before the piece's first MAS and after its last, if any
         let before = match (r, self.left[0]) {
             (0, FREE) => None,
@@ -1096,66 +1323,67 @@ impl Sheet {
         // whole blocks: MAS `0..full`, the last of which has a right neighbour in the piece
         let full = (len - 1) / LANES * LANES;
         let mut hl = h0;
-        // SAFETY: every load and store is of 8 items from `c0 < full` (so `c0 + 8 <= full <
-        // len`) or, the next block's, from `c0 + 8` when `c0 + 16 <= len`, within `xr`, `pr`,
-        // `next` and with `PER_MAS` `mr` (`len` each, asserted above; `mr` sliced to `len`);
-        // else the next block's first item alone, at `c0 + 8 <= full < len`.
+        // SAFETY: every load and store is of 8 items from `c0` or `c0 + 1` where `c0 < full`, a
+        // multiple of 8 (so `c0 + 1 + 8 <= full + 1 <= len`), or, the next block's, from `c0 +
+        // 8` when `c0 + 16 <= len`, within `xr`, `pr`, `next` and with `PER_MAS` `mr` (`len`
+        // each, asserted above; `mr` sliced to `len`); else the next block's first item alone,
+        // at `c0 + 8 <= full < len`.
         unsafe {
-            let (k8, z8, m8) = (
-                _mm512_set1_pd(kk),
-                _mm512_set1_pd(zz),
-                _mm512_set1_pd(self.m),
-            );
-            let s8 = _mm512_set1_pd(match strand {
-                Strand::But { s } => s,
-                _ => 0.0,
-            });
+            let (wide, m8) = (law.wide(), _mm512_set1_pd(self.m));
             let zero = _mm512_setzero_pd();
-            let shift_next = _mm512_setr_epi64(1, 2, 3, 4, 5, 6, 7, 8);
-            let shift_prev = _mm512_setr_epi64(7, 8, 9, 10, 11, 12, 13, 14);
+            let mut hprev = _mm512_set1_pd(h0);
+            let mut c0 = 0;
+            // (without `L::LOADS`) the block's `x`, `x'`, `v`, loaded with the block before
             let mut xa = _mm512_loadu_pd(xr.as_ptr());
             let mut pa = _mm512_loadu_pd(pr.as_ptr());
             let mut va = _mm512_sub_pd(xa, pa);
-            let mut hprev = _mm512_set1_pd(h0);
-            let mut c0 = 0;
-            while c0 < full {
-                let (xn, pn) = if c0 + 2 * LANES <= len {
-                    let at = c0 + LANES;
-                    (
-                        _mm512_loadu_pd(xr.as_ptr().add(at)),
-                        _mm512_loadu_pd(pr.as_ptr().add(at)),
-                    )
-                } else {
-                    (
-                        _mm512_set1_pd(xr[c0 + LANES]),
-                        _mm512_set1_pd(pr[c0 + LANES]),
-                    )
+            // one block of eight MAS from `c0` (a macro, so that the loop below holds it twice)
+            macro_rules! block {
+                () => {
+                    // the block's `x`, `x'`, `v` and their neighbours' on the right
+                    let (xa, pa, va, xb, vb) = if L::LOADS {
+                        // loaded from `c0` and `c0 + 1`
+                        let (at, pat) = (xr.as_ptr().add(c0), pr.as_ptr().add(c0));
+                        let (xa, pa) = (_mm512_loadu_pd(at), _mm512_loadu_pd(pat));
+                        let (xb, pb) = (_mm512_loadu_pd(at.add(1)), _mm512_loadu_pd(pat.add(1)));
+                        (xa, pa, _mm512_sub_pd(xa, pa), xb, _mm512_sub_pd(xb, pb))
+                    } else {
+                        // shifted by a lane from this block's and the next block's
+                        let (xn, pn) = if c0 + 2 * LANES <= len {
+                            let at = c0 + LANES;
+                            (
+                                _mm512_loadu_pd(xr.as_ptr().add(at)),
+                                _mm512_loadu_pd(pr.as_ptr().add(at)),
+                            )
+                        } else {
+                            (
+                                _mm512_set1_pd(xr[c0 + LANES]),
+                                _mm512_set1_pd(pr[c0 + LANES]),
+                            )
+                        };
+                        let vn = _mm512_sub_pd(xn, pn);
+                        let xb = next1(xa, xn);
+                        let vb = next1(va, vn);
+                        let here = (xa, pa, va);
+                        (xa, pa, va) = (xn, pn, vn);
+                        (here.0, here.1, here.2, xb, vb)
+                    };
+                    let h = L::force8(&wide, xa, va, xb, vb);
+                    let left = prev1(hprev, h);
+                    let f = _mm512_sub_pd(_mm512_add_pd(zero, left), h);
+                    let out = update8::<DIV, PER_MAS>(xa, pa, f, m8, mr, c0);
+                    _mm512_storeu_pd(next.as_mut_ptr().add(c0), out);
+                    hprev = h;
+                    c0 += LANES;
                 };
-                let vn = _mm512_sub_pd(xn, pn);
-                let xb = _mm512_permutex2var_pd(xa, shift_next, xn);
-                let vb = _mm512_permutex2var_pd(va, shift_next, vn);
-                let h = if !BUT {
-                    // `K (x1 - x2) + Z (v1 - v2)`, as `RefLaw::force`
-                    _mm512_add_pd(
-                        _mm512_mul_pd(k8, _mm512_sub_pd(xa, xb)),
-                        _mm512_mul_pd(z8, _mm512_sub_pd(va, vb)),
-                    )
-                } else {
-                    // `K ((x1 - x2) + S) + Z (v1 - v2)` where `x2 - x1 < S`, else `+0.0`, as
-                    // `ButLaw::force`
-                    let f = _mm512_add_pd(
-                        _mm512_mul_pd(k8, _mm512_add_pd(_mm512_sub_pd(xa, xb), s8)),
-                        _mm512_mul_pd(z8, _mm512_sub_pd(va, vb)),
-                    );
-                    let on = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(_mm512_sub_pd(xb, xa), s8);
-                    _mm512_maskz_mov_pd(on, f)
-                };
-                let left = _mm512_permutex2var_pd(hprev, shift_prev, h);
-                let f = _mm512_sub_pd(_mm512_add_pd(zero, left), h);
-                let out = update8::<DIV, PER_MAS>(xa, pa, f, m8, mr, c0);
-                _mm512_storeu_pd(next.as_mut_ptr().add(c0), out);
-                (hprev, xa, pa, va) = (h, xn, pn, vn);
-                c0 += LANES;
+            }
+            while c0 + LANES < full {
+                block!();
+                block!();
+            }
+            #[allow(unused_assignments)] // (the last block's `c0` and next block are not read)
+            if c0 < full {
+                block!();
             }
             if full > 0 {
                 let mut lanes = [0.0; LANES];
@@ -1219,8 +1447,6 @@ impl Sheet {
             _mm512_set1_pd(self.m),
         );
         let zero = _mm512_setzero_pd();
-        let shift_next = _mm512_setr_epi64(1, 2, 3, 4, 5, 6, 7, 8);
-        let shift_prev = _mm512_setr_epi64(7, 8, 9, 10, 11, 12, 13, 14);
         let mut hl = h0;
         let u0 = up[0];
         // SAFETY: every load and store is of 8 items from `c0 < full` or `c0 + 8 <= full` on,
@@ -1240,14 +1466,14 @@ impl Sheet {
                     _mm512_set1_pd(xr[c0 + LANES])
                 };
                 let vnx = _mm512_loadu_pd(vc.as_ptr().add(c0 + LANES));
-                let xb = _mm512_permutex2var_pd(xa, shift_next, xn);
-                let vb = _mm512_permutex2var_pd(va, shift_next, vnx);
+                let xb = next1(xa, xn);
+                let vb = next1(va, vnx);
                 // `K (x1 - x2) + Z (v1 - v2)`, as `RefLaw::force`
                 let h = _mm512_add_pd(
                     _mm512_mul_pd(k8, _mm512_sub_pd(xa, xb)),
                     _mm512_mul_pd(z8, _mm512_sub_pd(va, vb)),
                 );
-                let left = _mm512_permutex2var_pd(hprev, shift_prev, h);
+                let left = prev1(hprev, h);
                 let xdn = _mm512_loadu_pd(xd.as_ptr().add(c0));
                 let vd = _mm512_sub_pd(xdn, _mm512_loadu_pd(pd.as_ptr().add(c0)));
                 _mm512_storeu_pd(vn.as_mut_ptr().add(c0), vd);
