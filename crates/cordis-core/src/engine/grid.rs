@@ -127,9 +127,9 @@ trait StringLaw: Copy {
     type Wide: Copy;
 
     /// Whether [`Sheet::piece`] loads each block's neighbours on the right (from one slot
-    /// further) rather than shifting them by a lane from the block and the next: a REF or BUT
-    /// string runs 9-12 % slower so (the loads cross cache lines), an LNL string 7 % faster (its
-    /// curves keep the shuffle port busy; docs/BENCHMARKS.md).
+    /// further) rather than shifting them by a lane from the block and the next: a REF string
+    /// runs 9-12 % slower so and a BUT string 3 % (the loads cross cache lines), an LNL string
+    /// 7 % faster (its curves keep both vector ports busy; docs/BENCHMARKS.md).
     const LOADS: bool;
 
     /// The force of a link from its ends' positions and velocities (`x - x'`).
@@ -1281,10 +1281,12 @@ impl Sheet {
     }
 
     /// Row `r` of a string (a piece of it): `x(n+1)` into `next`, from the state `x`, `xp`. Each
-    /// MAS's `1 / M` or `M` is `Sheet::m`, or (`PER_MAS`) its own in `ms`. Eight MAS at a time:
-    /// the velocities of eight and of the next eight, their links on the right from them shifted
-    /// by a lane, the links on the left the same shifted the other way (the first from the block
-    /// before), `F(n) = (0 + f_left) - f_right` from `+0.0`, whichever order the MAS's two terms
+    /// MAS's `1 / M` or `M` is `Sheet::m`, or (`PER_MAS`) its own in `ms`. Eight MAS at a time,
+    /// two blocks per loop turn: the velocities of eight and of their neighbours on the right
+    /// (shifted by a lane from the next eight's, or with `L::LOADS` loaded from one slot
+    /// further), their links on the right (`L::force8`), the links on the left the same shifted
+    /// the other way (the first from the block before), `F(n) = (0 + f_left) - f_right` from
+    /// `+0.0`, whichever order the MAS's two terms
     /// come in: `(0 + a) + b = (0 + b) + a` bit for bit (addition commutes, and `0 + a` is `a`
     /// but for `a = -0.0`, where both sides are `b`, or `+0.0` if `b` is `-0.0` too; only the
     /// payload of a NaN, a blow-up either way, could tell). A free end has no term: its link is
