@@ -4106,6 +4106,16 @@ mod tests {
         assert!(k.mas_segments[0].streams.is_some());
     }
 
+    /// Moves each SOL of `net` to its own place off zero (1 to 7 thousandths), so that a link
+    /// to a ground computed from any other position than the SOL's gives other bits.
+    fn displace_grounds(net: &mut Network) {
+        for (i, mat) in net.materials.iter_mut().enumerate() {
+            if let Material::Sol { x0 } = mat {
+                *x0 = 1e-3 * (1 + i % 7) as f64;
+            }
+        }
+    }
+
     /// `strings` strings of `n` MAS, each declared as the language's `string` generator does (its
     /// MAS, a left SOL and its link, the inner links, a right SOL and its link), string `s` with
     /// the law `law(s)`; struck and observed on the first.
@@ -5008,6 +5018,8 @@ mod tests {
             (3, 17, 1.0, 0, Surround::Free),
             (9, 24, 1.0, 1, Surround::Free),
             (4, 41, 1.0, 2, Surround::Free),
+            (6, 31, 1.0, 2, Surround::Nothing),
+            (5, 23, 1.0, 0, Surround::Free),
             (5, 18, 1.0, 0, Surround::HammerFirst),
             (9, 24, 1.0, 1, Surround::HammerLast),
             (4, 41, 1.0, 2, Surround::HammerFirst),
@@ -5036,6 +5048,13 @@ mod tests {
         nets.push(("9x24, M 1/2^k".into(), 24, powers));
         let ramp = |i: usize| 1.0 + (i % 37) as f64 / 13.0;
         nets.push(("7x100, M any".into(), 100, membrane(7, 100, ramp)));
+        nets.push(("6x19, M any".into(), 19, membrane(6, 19, ramp)));
+        // grounds off zero, each row's last block of 4 and of 8 columns
+        for (rows, cols) in [(7, 100), (9, 24)] {
+            let mut net = membrane(rows, cols, |_| 1.0);
+            displace_grounds(&mut net);
+            nets.push((format!("{rows}x{cols}, grounds displaced"), cols, net));
+        }
         let mut heavy = surrounded(5, 18, 1, Surround::Pair);
         heavy.materials[40] = Material::Mas {
             m: 3.0,
@@ -5118,7 +5137,8 @@ mod tests {
         // two inner links declared the other way round: MAS 6 sums its right link first
         let inner = |net: &mut Network| net.links.swap(6, 7);
         type Edit<'a> = &'a dyn Fn(&mut Network);
-        let edits: [(&str, Edit); 6] = [
+        let edits: [(&str, Edit); 7] = [
+            ("grounds displaced", &displace_grounds),
             ("free left", &free_left),
             ("free right", &free_right),
             ("free ends", &free_both),
@@ -5127,7 +5147,7 @@ mod tests {
             ("inner swapped", &inner),
         ];
         for (name, edit) in edits {
-            for n in [17, 2100] {
+            for n in [17, 24, 2100] {
                 nets.push((format!("{n} {name}"), one(n, edit)));
             }
         }

@@ -7,6 +7,9 @@
 //! registers, stored with a masked store (nothing past the end is written). Each lane computes the
 //! same IEEE operations on the same values as the scalar loop would: the same bits.
 
+#[cfg(target_arch = "x86_64")]
+use std::arch::x86_64::{__m512d, _mm512_mask_storeu_pd, _mm512_maskz_loadu_pd};
+
 /// Lanes of a block.
 pub(crate) const LANES: usize = 8;
 
@@ -155,13 +158,23 @@ impl Avx512 {
 #[target_feature(enable = "avx512f")]
 #[inline]
 pub(crate) unsafe fn load(s: &[f64]) -> [f64; LANES] {
-    use std::arch::x86_64::{__m512d, _mm512_maskz_loadu_pd};
+    // SAFETY: `__m512d` is 64 bytes of eight `f64`, as `[f64; 8]`; every bit pattern is valid;
+    // the CPU has AVX-512F, as `load8` needs.
+    unsafe { std::mem::transmute::<__m512d, [f64; LANES]>(load8(s)) }
+}
+
+/// [`load`] into a vector.
+///
+/// # Safety
+/// The CPU has AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(crate) unsafe fn load8(s: &[f64]) -> __m512d {
     // SAFETY: the mask selects lanes `0..min(s.len(), 8)`, each an item of `s`; a masked load
     // does not access the lanes its mask clears (Intel SDM, "memory faults are suppressed" on
     // masked-off elements), so nothing outside `s` is read. The pointer needs no alignment.
-    let v = unsafe { _mm512_maskz_loadu_pd(mask(s.len()), s.as_ptr()) };
-    // SAFETY: `__m512d` is 64 bytes of eight `f64`, as `[f64; 8]`; every bit pattern is valid.
-    unsafe { std::mem::transmute::<__m512d, [f64; LANES]>(v) }
+    unsafe { _mm512_maskz_loadu_pd(mask(s.len()), s.as_ptr()) }
 }
 
 /// Writes lanes `0..min(out.len(), 8)` of `v` into `out`; nothing else is written.
@@ -172,9 +185,18 @@ pub(crate) unsafe fn load(s: &[f64]) -> [f64; LANES] {
 #[target_feature(enable = "avx512f")]
 #[inline]
 pub(crate) unsafe fn store(out: &mut [f64], v: [f64; LANES]) {
-    use std::arch::x86_64::{__m512d, _mm512_mask_storeu_pd};
-    // SAFETY: as in `load`: same size, every bit pattern valid.
-    let v = unsafe { std::mem::transmute::<[f64; LANES], __m512d>(v) };
+    // SAFETY: as in `load`: same size, every bit pattern valid; the CPU has AVX-512F.
+    unsafe { store8(out, std::mem::transmute::<[f64; LANES], __m512d>(v)) }
+}
+
+/// [`store`] from a vector.
+///
+/// # Safety
+/// The CPU has AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(crate) unsafe fn store8(out: &mut [f64], v: __m512d) {
     // SAFETY: the mask selects lanes `0..min(out.len(), 8)`, each an item of `out`, which we
     // borrow mutably; a masked store does not write (or fault on) the lanes its mask clears.
     unsafe { _mm512_mask_storeu_pd(out.as_mut_ptr(), mask(out.len()), v) }
@@ -183,7 +205,7 @@ pub(crate) unsafe fn store(out: &mut [f64], v: [f64; LANES]) {
 /// The mask of lanes `0..min(len, 8)`.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn mask(len: usize) -> u8 {
+pub(crate) fn mask(len: usize) -> u8 {
     ((1u16 << len.min(LANES)) - 1) as u8
 }
 

@@ -36,8 +36,9 @@
 //! neighbours taken left, right, up, down), and a MAS adds them, from `+0.0`, in its [`Order`]:
 //! the inner MAS of a row all in one, left-right-up-down or left-right-down-up (the top row of
 //! the language's `membrane`, whose rim links come last), which the vector loop sums; the row's
-//! first and last MAS in any (the first recomputed after the loop, the last in the scalar tail).
-//! The update is `mas_with`'s.
+//! first and last MAS in any (recomputed after the loop when theirs is not the row's). The
+//! row's last block, of 1 to 8 MAS, is one masked block, its last lane's right neighbour the
+//! row's ground. The update is `mas_with`'s.
 //!
 //! **Free sides.** A missing neighbour without a SOL (a free border) gets the MAS itself as its
 //! SOL: the link of a MAS to itself is `K (x - x) + Z (v - v)`, a zero, for a finite `x` and `v`,
@@ -82,6 +83,8 @@ use std::ops::Range;
 use crate::curve::ExactCurve;
 #[cfg(target_arch = "x86_64")]
 use crate::curve::WideCurve;
+#[cfg(target_arch = "x86_64")]
+use crate::lanes::{load8, mask, store8};
 use crate::lanes::{Avx512, LANES};
 use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
 
@@ -1307,7 +1310,6 @@ impl Sheet {
         // every access below is within these (checked once here)
         let (xr, pr) = (&x[slots.clone()], &xp[slots.clone()]);
         let mr = if PER_MAS { &ms[slots] } else { &[] };
-        let m_at = |c: usize| if PER_MAS { mr[c] } else { self.m };
         assert!(next.len() == len && len >= COLS_MIN);
         let link = |xa: f64, va: f64, xb: f64, vb: f64| law.force(xa, va, xb, vb);
         // the neighbour (a storage slot) before the piece's first MAS and after its last, if any
@@ -1322,14 +1324,17 @@ impl Sheet {
             _ => Some(hi),
         };
         let h0 = before.map_or(0.0, |b| link(x[b], x[b] - xp[b], xr[0], xr[0] - pr[0]));
-        // whole blocks: MAS `0..full`, the last of which has a right neighbour in the piece
+        // whole blocks: MAS `0..full`, the last of which has a right neighbour in the piece; the
+        // last block, MAS `full..len` (1 to 8), the last of which has the neighbour after the
+        // piece
         let full = (len - 1) / LANES * LANES;
-        let mut hl = h0;
+        let last = (1u16 << (len - full - 1)) as __mmask8;
         // SAFETY: every load and store is of 8 items from `c0` or `c0 + 1` where `c0 < full`, a
         // multiple of 8 (so `c0 + 1 + 8 <= full + 1 <= len`), or, the next block's, from `c0 +
         // 8` when `c0 + 16 <= len`, within `xr`, `pr`, `next` and with `PER_MAS` `mr` (`len`
         // each, asserted above; `mr` sliced to `len`); else the next block's first item alone,
-        // at `c0 + 8 <= full < len`.
+        // at `c0 + 8 <= full < len`. The last block's are `lanes::load8` and `store8` of
+        // `xr`, `pr`, `mr`, `next` from `full`, which touch those slices' items alone.
         unsafe {
             let (wide, m8) = (law.wide(), _mm512_set1_pd(self.m));
             let zero = _mm512_setzero_pd();
@@ -1387,22 +1392,25 @@ impl Sheet {
             if c0 < full {
                 block!();
             }
-            if full > 0 {
-                let mut lanes = [0.0; LANES];
-                _mm512_storeu_pd(lanes.as_mut_ptr(), hprev);
-                hl = lanes[LANES - 1];
+            // the last block: its right neighbours within it, then the one after the piece in
+            // the last lane, or (a free end) a `+0.0` link there
+            let (xa, pa) = (load8(&xr[full..]), load8(&pr[full..]));
+            let va = _mm512_sub_pd(xa, pa);
+            let (mut xb, mut vb) = (next1(xa, zero), next1(va, zero));
+            if let Some(a) = after {
+                xb = _mm512_mask_mov_pd(xb, last, _mm512_set1_pd(x[a]));
+                vb = _mm512_mask_mov_pd(vb, last, _mm512_set1_pd(x[a] - xp[a]));
             }
-        }
-        // the last MAS, one at a time, the last with the neighbour after the piece
-        for c in full..len {
-            let (x0, v0) = (xr[c], xr[c] - pr[c]);
-            let h = match (c + 1 < len, after) {
-                (true, _) => link(x0, v0, xr[c + 1], xr[c + 1] - pr[c + 1]),
-                (false, Some(a)) => link(x0, v0, x[a], x[a] - xp[a]),
-                (false, None) => 0.0,
-            };
-            next[c] = Self::update_as::<DIV>(x0, pr[c], (0.0 + hl) - h, m_at(c));
-            hl = h;
+            let mut h = L::force8(&wide, xa, va, xb, vb);
+            if after.is_none() {
+                h = _mm512_mask_mov_pd(h, last, zero);
+            }
+            let f = _mm512_sub_pd(_mm512_add_pd(zero, prev1(hprev, h)), h);
+            let m = if PER_MAS { load8(&mr[full..]) } else { m8 };
+            store8(
+                &mut next[full..],
+                update8::<DIV, false>(xa, pa, f, m, mr, full),
+            );
         }
     }
 
@@ -1436,113 +1444,109 @@ impl Sheet {
         assert!(xd.len() == cols && pd.len() == cols && next.len() == cols);
         assert!(vc.len() == stride && vn.len() == stride && up.len() == stride);
         assert!(cols >= COLS_MIN);
-        let (kk, zz) = (self.k, self.z);
-        let link = |xa: f64, va: f64, xb: f64, vb: f64| RefLaw::force(kk, zz, 0.0, xa, va, xb, vb);
+        let law = RefLinks(self.k, self.z);
+        let link = |xa: f64, va: f64, xb: f64, vb: f64| law.force(xa, va, xb, vb);
         // the link on the left of column 0, from this row's left ground
         let gl = self.left[r] as usize;
         let h0 = link(x[gl], x[gl] - xp[gl], xr[0], vc[0]);
-        // whole blocks: columns `0..full`, the last of which has a right neighbour in the row
+        // whole blocks: columns `0..full`, the last of which has a right neighbour in the row;
+        // the last block, columns `full..cols` (1 to 8, the lanes of `tail`), the last of which
+        // has this row's right ground
         let full = (cols - 1) / LANES * LANES;
-        let (k8, z8, m8) = (
-            _mm512_set1_pd(kk),
-            _mm512_set1_pd(zz),
-            _mm512_set1_pd(self.m),
-        );
-        let zero = _mm512_setzero_pd();
-        let mut hl = h0;
-        let u0 = up[0];
-        // SAFETY: every load and store is of 8 items from `c0 < full` or `c0 + 8 <= full` on,
-        // `full + 8 <= cols + 7 < stride`, within `xr`, `pr`, `xd`, `pd`, `next`, and with
-        // `PER_MAS` `mr` (`cols` each: `c0 + 8 <= full < cols`) or the row buffers (`stride`
-        // each), asserted above (`mr` sliced to `cols`); the next block's `x` is loaded whole
-        // only when it is within the row (`c0 + 8 < full`).
+        let tail = mask(cols - full);
+        let gr = self.right[r] as usize;
+        let (xg, vg) = (x[gr], x[gr] - xp[gr]);
+        let (u0, u_last) = (up[0], up[cols - 1]);
+        // SAFETY: every load and store is of 8 items from `c0 <= full` on, `full + 8 <= cols + 7
+        // < stride`, within the row buffers (`stride` each), or within `xr`, `pr`, `xd`, `pd`,
+        // `next`, and with `PER_MAS` `mr` (`cols` each, asserted above; `mr` sliced to `cols`):
+        // whole from `c0 < full` (so `c0 + 8 <= full < cols`), or `lanes::load8` and `store8`
+        // of their items from `full`, which touch those slices' items alone.
         unsafe {
+            let w = law.wide();
+            let m8 = _mm512_set1_pd(self.m);
+            let zero = _mm512_setzero_pd();
             let mut xa = _mm512_loadu_pd(xr.as_ptr());
             let mut va = _mm512_loadu_pd(vc.as_ptr());
             let mut hprev = _mm512_set1_pd(h0);
             let mut c0 = 0;
+            // the block from `c0` with its right neighbours `xb`, `vb`, whole or (`$tail`) the
+            // lanes of `tail`; gives its links on the right
+            macro_rules! load {
+                ($at:expr, $tail:expr) => {
+                    if $tail {
+                        load8(&$at[c0..])
+                    } else {
+                        _mm512_loadu_pd($at.as_ptr().add(c0))
+                    }
+                };
+            }
+            macro_rules! block {
+                ($xb:expr, $vb:expr, $tail:expr) => {{
+                    let (xb, vb) = ($xb, $vb);
+                    let h = RefLinks::force8(&w, xa, va, xb, vb);
+                    let left = prev1(hprev, h);
+                    let xdn = load!(xd, $tail);
+                    let vd = _mm512_sub_pd(xdn, load!(pd, $tail));
+                    _mm512_storeu_pd(vn.as_mut_ptr().add(c0), vd);
+                    let d = RefLinks::force8(&w, xa, va, xdn, vd);
+                    let u = _mm512_loadu_pd(up.as_ptr().add(c0));
+                    _mm512_storeu_pd(up.as_mut_ptr().add(c0), d);
+                    // `F(n)` from `+0.0`, term by term
+                    let f = _mm512_sub_pd(_mm512_add_pd(zero, left), h);
+                    let f = if UP_LAST {
+                        _mm512_add_pd(_mm512_sub_pd(f, d), u)
+                    } else {
+                        _mm512_sub_pd(_mm512_add_pd(f, u), d)
+                    };
+                    let p = load!(pr, $tail);
+                    if $tail {
+                        let m = if PER_MAS { load8(&mr[c0..]) } else { m8 };
+                        store8(&mut next[c0..], update8::<DIV, false>(xa, p, f, m, mr, c0));
+                    } else {
+                        let out = update8::<DIV, PER_MAS>(xa, p, f, m8, mr, c0);
+                        _mm512_storeu_pd(next.as_mut_ptr().add(c0), out);
+                    }
+                    h
+                }};
+            }
             while c0 < full {
                 let xn = if c0 + LANES < full {
                     _mm512_loadu_pd(xr.as_ptr().add(c0 + LANES))
                 } else {
-                    _mm512_set1_pd(xr[c0 + LANES])
+                    load8(&xr[c0 + LANES..])
                 };
                 let vnx = _mm512_loadu_pd(vc.as_ptr().add(c0 + LANES));
-                let xb = next1(xa, xn);
-                let vb = next1(va, vnx);
-                // `K (x1 - x2) + Z (v1 - v2)`, as `RefLaw::force`
-                let h = _mm512_add_pd(
-                    _mm512_mul_pd(k8, _mm512_sub_pd(xa, xb)),
-                    _mm512_mul_pd(z8, _mm512_sub_pd(va, vb)),
-                );
-                let left = prev1(hprev, h);
-                let xdn = _mm512_loadu_pd(xd.as_ptr().add(c0));
-                let vd = _mm512_sub_pd(xdn, _mm512_loadu_pd(pd.as_ptr().add(c0)));
-                _mm512_storeu_pd(vn.as_mut_ptr().add(c0), vd);
-                let d = _mm512_add_pd(
-                    _mm512_mul_pd(k8, _mm512_sub_pd(xa, xdn)),
-                    _mm512_mul_pd(z8, _mm512_sub_pd(va, vd)),
-                );
-                let u = _mm512_loadu_pd(up.as_ptr().add(c0));
-                _mm512_storeu_pd(up.as_mut_ptr().add(c0), d);
-                // `F(n)` from `+0.0`, term by term
-                let f = _mm512_sub_pd(_mm512_add_pd(zero, left), h);
-                let f = if UP_LAST {
-                    _mm512_add_pd(_mm512_sub_pd(f, d), u)
-                } else {
-                    _mm512_sub_pd(_mm512_add_pd(f, u), d)
-                };
-                let p = _mm512_loadu_pd(pr.as_ptr().add(c0));
-                let out = update8::<DIV, PER_MAS>(xa, p, f, m8, mr, c0);
-                _mm512_storeu_pd(next.as_mut_ptr().add(c0), out);
-                hprev = h;
+                hprev = block!(next1(xa, xn), next1(va, vnx), false);
                 (xa, va) = (xn, vnx);
                 c0 += LANES;
             }
-            if full > 0 {
-                let mut lanes = [0.0; LANES];
-                _mm512_storeu_pd(lanes.as_mut_ptr(), hprev);
-                hl = lanes[LANES - 1];
-            }
+            // the last block: its right neighbours within it, then the ground's in the last
+            // lane (`vc`'s lanes after the row's are left out, whatever they hold)
+            va = _mm512_maskz_mov_pd(tail, va);
+            let last = (1u16 << (cols - full - 1)) as __mmask8;
+            let xb = _mm512_mask_mov_pd(next1(xa, zero), last, _mm512_set1_pd(xg));
+            let vb = _mm512_mask_mov_pd(next1(va, zero), last, _mm512_set1_pd(vg));
+            let _ = block!(xb, vb, true);
         }
-        // the last columns, one at a time, the last with this row's right ground
+        // the first and last MAS again if their terms come in another order than the row's
         let mid = if UP_LAST {
             Order::UP_LAST
         } else {
             Order::CANONICAL
         };
-        let gr = self.right[r] as usize;
-        // column `c` with its right neighbour's `x` and `v`, summed in `order`; gives its link on
-        // the right (a macro, so that the last column's order stays out of the loop)
-        macro_rules! column {
-            ($c:expr, $xr:expr, $vr:expr, $order:expr) => {{
-                let c = $c;
-                let (x0, v0) = (xr[c], vc[c]);
-                let h = link(x0, v0, $xr, $vr);
-                let v = xd[c] - pd[c];
-                vn[c] = v;
-                let d = link(x0, v0, xd[c], v);
-                let f = $order.sum([hl, -h, up[c], -d]);
-                up[c] = d;
-                next[c] = Self::update_as::<DIV>(x0, pr[c], f, m_at(c));
-                h
-            }};
-        }
-        for c in full..cols - 1 {
-            hl = column!(c, xr[c + 1], vc[c + 1], mid);
-        }
-        let order = self.last[r];
-        if order == mid {
-            column!(cols - 1, x[gr], x[gr] - xp[gr], mid);
-        } else {
-            column!(cols - 1, x[gr], x[gr] - xp[gr], order);
-        }
-        // the first MAS again if its terms come in another order than the row's
         if self.first[r] != mid {
             let (x0, v0) = (xr[0], vc[0]);
             let h = link(x0, v0, xr[1], vc[1]);
             let f = self.first[r].sum([h0, -h, u0, -up[0]]);
             next[0] = Self::update_as::<DIV>(x0, pr[0], f, m_at(0));
+        }
+        if self.last[r] != mid {
+            let c = cols - 1;
+            let (x0, v0) = (xr[c], vc[c]);
+            let hl = link(xr[c - 1], vc[c - 1], x0, v0);
+            let f = self.last[r].sum([hl, -link(x0, v0, xg, vg), u_last, -up[c]]);
+            next[c] = Self::update_as::<DIV>(x0, pr[c], f, m_at(c));
         }
     }
 }
