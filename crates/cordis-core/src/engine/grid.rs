@@ -1470,8 +1470,7 @@ impl Sheet {
             let mut va = _mm512_loadu_pd(vc.as_ptr());
             let mut hprev = _mm512_set1_pd(h0);
             let mut c0 = 0;
-            // the block from `c0` with its right neighbours `xb`, `vb`, whole or (`$tail`) the
-            // lanes of `tail`; gives its links on the right
+            // eight items of a row from `c0`, or (`$tail`) those of the last block
             macro_rules! load {
                 ($at:expr, $tail:expr) => {
                     if $tail {
@@ -1481,6 +1480,8 @@ impl Sheet {
                     }
                 };
             }
+            // the block from `c0` with its right neighbours `xb`, `vb`, whole or (`$tail`) the
+            // lanes of `tail`; gives its links on the right
             macro_rules! block {
                 ($xb:expr, $vb:expr, $tail:expr) => {{
                     let (xb, vb) = ($xb, $vb);
