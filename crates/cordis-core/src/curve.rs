@@ -1,5 +1,8 @@
 //! Piecewise-linear curves: the LNL force laws and the envelope signal.
 
+#[cfg(target_arch = "x86_64")]
+use crate::wide::Vector;
+
 /// A piecewise-linear function given by points `(abscissa, value)`.
 ///
 /// Rules (FORMALISM.md): abscissas are non-decreasing; the function is linear between points;
@@ -169,41 +172,41 @@ impl<const N: usize> ExactCurve<N> {
                 && self.ys[0].to_bits() != (-0.0f64).to_bits())
     }
 
-    /// The curve with each number broadcast to eight lanes, for [`WideCurve::eval`].
+    /// The curve with each number broadcast to every lane of `V`, for [`WideCurve::eval`].
     ///
     /// # Safety
-    /// The CPU must have AVX-512F.
+    /// The CPU must have `V`'s instructions (see [`Vector`]).
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    pub(crate) unsafe fn wide(&self) -> WideCurve<N> {
-        use std::arch::x86_64::_mm512_set1_pd;
+    pub(crate) unsafe fn wide<V: Vector>(&self) -> WideCurve<V, N> {
         WideCurve {
-            xs: self.xs.map(|v| _mm512_set1_pd(v)),
-            ys: self.ys.map(|v| _mm512_set1_pd(v)),
-            slopes: self.slopes.map(|v| _mm512_set1_pd(v)),
+            xs: self.xs.map(|v| V::splat(v)),
+            ys: self.ys.map(|v| V::splat(v)),
+            slopes: self.slopes.map(|v| V::splat(v)),
         }
     }
 }
 
-/// An [`ExactCurve`] for eight abscissas at a time (AVX-512): [`ExactCurve::eval`] lane by lane,
-/// the same operations on the same operands, each `if` a masked select.
+/// An [`ExactCurve`] for several abscissas at a time (eight with AVX-512, four with AVX2):
+/// [`ExactCurve::eval`] lane by lane, the same operations on the same operands, each `if` a
+/// select.
 #[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
-pub(crate) struct WideCurve<const N: usize> {
-    xs: [std::arch::x86_64::__m512d; N],
-    ys: [std::arch::x86_64::__m512d; N],
-    slopes: [std::arch::x86_64::__m512d; N],
+pub(crate) struct WideCurve<V: Vector, const N: usize> {
+    xs: [V; N],
+    ys: [V; N],
+    slopes: [V; N],
 }
 
 #[cfg(target_arch = "x86_64")]
-impl<const N: usize> WideCurve<N> {
+impl<V: Vector, const N: usize> WideCurve<V, N> {
     /// The value at each lane of `x`: [`ExactCurve::eval`]'s bits in each lane, for a curve
-    /// that [`ExactCurve::widens`]. `_CMP_LE_OQ` is Rust's `<=` (false when either side is NaN),
-    /// a `mask_blend(k, a, b)` is `if k { b } else { a }`, and `along` is the same `y + (x -
-    /// x0) * slope`, rounded after each operation (no fused multiply-add).
+    /// that [`ExactCurve::widens`]. [`Vector::le`] is Rust's `<=` (false when either side is
+    /// NaN), `a.select(k, b)` is `if k { b } else { a }`, and `along` is the same `y + (x - x0) *
+    /// slope`, rounded after each operation (no fused multiply-add).
     ///
     /// Before the first point (or at a NaN) `ExactCurve::eval` gives `y[0]`; here `x` is first
-    /// raised to `x[0]` (`max_pd(x, x0)` gives its second operand `x0` for a NaN `x`, and for
+    /// raised to `x[0]` (`x.max(x0)` gives its second operand `x0` for a NaN `x`, and for
     /// two zeros), and segment 0 at `x[0]` is `y[0] + 0 * slope[0]`: `y[0]` plus a zero, `y[0]`
     /// again since it is not `-0.0` and the slope is finite. The point after `x[0]` is further
     /// (`x[0] < x[1]`), so segment 0 is the one chosen, and `after` is false (`x[0] < x[N-1]`).
@@ -212,24 +215,23 @@ impl<const N: usize> WideCurve<N> {
     /// value is `y[0]` plus a zero, `y[0]`, either way.
     ///
     /// # Safety
-    /// The CPU must have AVX-512F.
+    /// The CPU must have `V`'s instructions (see [`Vector`]).
     #[inline(always)]
-    pub(crate) unsafe fn eval(&self, x: std::arch::x86_64::__m512d) -> std::arch::x86_64::__m512d {
-        use std::arch::x86_64::*;
+    pub(crate) unsafe fn eval(&self, x: V) -> V {
         if N < 2 {
-            return _mm512_setzero_pd(); // (`N` is 0: `ExactCurve::new` refuses 1)
+            return V::zero(); // (`N` is 0: `ExactCurve::new` refuses 1)
         }
-        let x = _mm512_max_pd(x, self.xs[0]);
+        let x = x.max(self.xs[0]);
         let (mut x0, mut y, mut slope) = (self.xs[0], self.ys[0], self.slopes[0]);
         for j in 1..N - 1 {
-            let past = _mm512_cmp_pd_mask::<_CMP_LE_OQ>(self.xs[j], x);
-            x0 = _mm512_mask_blend_pd(past, x0, self.xs[j]);
-            y = _mm512_mask_blend_pd(past, y, self.ys[j]);
-            slope = _mm512_mask_blend_pd(past, slope, self.slopes[j]);
+            let past = self.xs[j].le(x);
+            x0 = x0.select(past, self.xs[j]);
+            y = y.select(past, self.ys[j]);
+            slope = slope.select(past, self.slopes[j]);
         }
-        let along = _mm512_add_pd(y, _mm512_mul_pd(_mm512_sub_pd(x, x0), slope));
-        let after = _mm512_cmp_pd_mask::<_CMP_LE_OQ>(self.xs[N - 1], x);
-        _mm512_mask_blend_pd(after, along, self.ys[N - 1])
+        let along = y.add(x.sub(x0).mul(slope));
+        let after = self.xs[N - 1].le(x);
+        along.select(after, self.ys[N - 1])
     }
 }
 
@@ -567,81 +569,85 @@ mod tests {
                 xs.extend([x, -x, up, -up, x * 0.999, x * 1.001]);
             }
         }
-        let cpu = crate::lanes::Avx512::detect();
         let mut refused_differ = 0;
+        let mut widths = 0;
         for (pts, widens) in &curves {
             let c = Curve::new(pts).unwrap();
             // (each curve as the `ExactCurve` of its size, evaluated wide and one at a time)
-            let (got, want): (Vec<u64>, Vec<u64>) = match pts.len() {
-                0 => wide_bits(
-                    &ExactCurve::<0>::new(&c).unwrap(),
-                    &xs,
-                    *widens,
-                    cpu.is_some(),
-                ),
-                2 => wide_bits(
-                    &ExactCurve::<2>::new(&c).unwrap(),
-                    &xs,
-                    *widens,
-                    cpu.is_some(),
-                ),
-                3 => wide_bits(
-                    &ExactCurve::<3>::new(&c).unwrap(),
-                    &xs,
-                    *widens,
-                    cpu.is_some(),
-                ),
-                _ => wide_bits(
-                    &ExactCurve::<4>::new(&c).unwrap(),
-                    &xs,
-                    *widens,
-                    cpu.is_some(),
-                ),
+            let (got, want): (Vec<Vec<u64>>, Vec<u64>) = match pts.len() {
+                0 => wide_bits(&ExactCurve::<0>::new(&c).unwrap(), &xs, *widens),
+                2 => wide_bits(&ExactCurve::<2>::new(&c).unwrap(), &xs, *widens),
+                3 => wide_bits(&ExactCurve::<3>::new(&c).unwrap(), &xs, *widens),
+                _ => wide_bits(&ExactCurve::<4>::new(&c).unwrap(), &xs, *widens),
             };
             let scalar: Vec<u64> = xs.iter().map(|&x| c.eval(x).to_bits()).collect();
             assert_eq!(want, scalar, "{pts:?}: ExactCurve::eval");
-            if *widens {
-                for (i, (g, w)) in got.iter().zip(&want).enumerate() {
-                    assert_eq!(g, w, "{pts:?} at {}", xs[i]);
+            widths = got.len();
+            for got in got {
+                if *widens {
+                    for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+                        assert_eq!(g, w, "{pts:?} at {}", xs[i]);
+                    }
+                } else if got != want {
+                    refused_differ += 1;
                 }
-            } else if got != want {
-                refused_differ += 1;
             }
         }
-        // (each refused curve would give other bits somewhere: `+0.0` for a `-0.0` first value,
-        // the value after a jump at the first point, `0 * inf`, a NaN, before an infinite slope)
-        if cpu.is_some() {
-            assert_eq!(refused_differ, curves.iter().filter(|c| !c.1).count());
-        }
+        // (each refused curve would give other bits somewhere, in every width: `+0.0` for a
+        // `-0.0` first value, the value after a jump at the first point, `0 * inf`, a NaN, before
+        // an infinite slope)
+        assert_eq!(
+            refused_differ,
+            widths * curves.iter().filter(|c| !c.1).count()
+        );
     }
 
-    /// The bits of `e` at `xs`: `WideCurve::eval`'s (empty without AVX-512) and `eval`'s; checks
-    /// that `e.widens()` is `widens`.
+    /// The bits of `e` at `xs`: `WideCurve::eval`'s in each width the CPU has (AVX-512, AVX2;
+    /// none elsewhere) and `eval`'s; checks that `e.widens()` is `widens`.
     fn wide_bits<const N: usize>(
         e: &ExactCurve<N>,
         xs: &[f64],
         widens: bool,
-        avx512: bool,
-    ) -> (Vec<u64>, Vec<u64>) {
+    ) -> (Vec<Vec<u64>>, Vec<u64>) {
         assert_eq!(e.widens(), widens);
         let want = xs.iter().map(|&x| e.eval(x).to_bits()).collect();
+        #[allow(unused_mut)]
         let mut got = Vec::new();
         #[cfg(target_arch = "x86_64")]
-        if avx512 {
-            use std::arch::x86_64::*;
-            for chunk in xs.chunks(8) {
-                let mut lanes = [0.0; 8];
-                lanes[..chunk.len()].copy_from_slice(chunk);
-                // SAFETY: the caller found AVX-512F (`Avx512::detect`).
-                unsafe {
-                    let v = e.wide().eval(_mm512_loadu_pd(lanes.as_ptr()));
-                    _mm512_storeu_pd(lanes.as_mut_ptr(), v);
+        {
+            use crate::wide::{V4, V8};
+            /// `WideCurve::eval` of `e` at `xs`, `V::N` at a time (the last lanes `0.0`).
+            #[inline(always)]
+            unsafe fn eval_as<V: Vector, const N: usize>(
+                e: &ExactCurve<N>,
+                xs: &[f64],
+            ) -> Vec<u64> {
+                let w = e.wide::<V>();
+                let mut got = Vec::new();
+                for chunk in xs.chunks(V::N) {
+                    let mut lanes = [0.0; 8];
+                    w.eval(V::load_part(chunk)).store(lanes.as_mut_ptr());
+                    got.extend(lanes[..chunk.len()].iter().map(|v| v.to_bits()));
                 }
-                got.extend(lanes[..chunk.len()].iter().map(|v| v.to_bits()));
+                got
+            }
+            #[target_feature(enable = "avx512f")]
+            unsafe fn eval8<const N: usize>(e: &ExactCurve<N>, xs: &[f64]) -> Vec<u64> {
+                eval_as::<V8, N>(e, xs)
+            }
+            #[target_feature(enable = "avx2")]
+            unsafe fn eval4<const N: usize>(e: &ExactCurve<N>, xs: &[f64]) -> Vec<u64> {
+                eval_as::<V4, N>(e, xs)
+            }
+            if std::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU has AVX-512F.
+                got.push(unsafe { eval8(e, xs) });
+            }
+            if std::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has AVX2.
+                got.push(unsafe { eval4(e, xs) });
             }
         }
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = avx512;
         (got, want)
     }
 

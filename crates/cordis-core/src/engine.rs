@@ -1271,10 +1271,10 @@ impl Kernel {
     /// also gets the pull step (`engine/pull.rs`) when the CPU has AVX-512 (with AVX2 only, when
     /// every link is a REF): [`Engine::process`] then takes it, on one thread or on the pool's
     /// (`pull::PullJob`). Membranes, each of one
-    /// REF law, their borders fixed or free, alone or with at most half as much
-    /// around them, get the grid step instead (`engine/grid.rs`, `grid::GridJob`), which keeps every
-    /// force in registers; their network is stored with its MAS in declaration order
-    /// ([`Mobiles::Declared`]).
+    /// REF law, their borders fixed or free, and strings, alone or with at most half as much
+    /// around them, get the grid step instead when the CPU has AVX-512 or AVX2 (`engine/grid.rs`,
+    /// `grid::GridJob`), which keeps every force in registers; their network is stored with its
+    /// MAS in declaration order ([`Mobiles::Declared`]).
     #[track_caller]
     fn new(net: &Network) -> Kernel {
         Kernel::new_for(net, Simd::detect())
@@ -4156,10 +4156,10 @@ mod tests {
             k: k_of(s),
             z: 1e-4,
         });
-        // (with AVX-512 the grid step takes them, each a string of its own: the gather step's
-        // storage is `choose`'s)
+        // (with AVX-512 or AVX2 the grid step takes them, each a string of its own: the gather
+        // step's storage is `choose`'s)
         let grid = Kernel::new(&net).grid;
-        let strings = 12 * usize::from(Avx512::detect().is_some());
+        let strings = 12 * usize::from(Simd::detect() != Simd::None);
         assert_eq!(grid.map_or(0, |g| g.sheets()), strings);
         let k = Kernel::choose(&net);
         assert!(k.grid.is_none() && !k.compact, "the gather step");
@@ -4917,8 +4917,8 @@ mod tests {
     /// and gives the gather step's bits: every output and, after each block, every link force.
     #[test]
     fn the_grid_step_takes_only_membranes_and_gives_the_gather_bits() {
-        if Avx512::detect().is_none() {
-            // (the grid step needs AVX-512: without it no network takes it)
+        if Simd::detect() == Simd::None {
+            // (the grid step needs AVX-512 or AVX2: without them no network takes it)
             assert!(Engine::new(&membrane(4, 20, |_| 1.0)).k.grid.is_none());
             return;
         }
@@ -5068,27 +5068,47 @@ mod tests {
             net.add_force(MatId(cols as u32 + 5), Signal::Impulse { at: 9, amp: 0.1 });
             net.add_force(MatId(cols as u32 + 5), Signal::Constant(1e-4));
             net.add_force(MatId(0), Signal::Impulse { at: 30, amp: -0.1 });
-            let mut grid = Engine::new(&net);
             let pair = name.to_lowercase().contains("pair");
             assert_eq!(sheets(&net), 1 + usize::from(pair), "{name}");
-            let mut gather = grid.clone();
-            gather.k.grid = None;
-            let mut moved = false;
-            for block in [1, 97, 1024, 5] {
-                let mut a = vec![0.0; block * grid.channels()];
-                let mut b = a.clone();
-                grid.process(block, &mut a).unwrap();
-                gather.process(block, &mut b).unwrap();
-                let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
-                assert!(bits(&a) == bits(&b), "{name}, block {block}");
-                moved |= a.iter().any(|&v| v != 0.0);
-                for l in 0..net.links.len() {
-                    let l = LinkId(l as u32);
-                    assert_eq!(grid.link_force(l).to_bits(), gather.link_force(l).to_bits());
+            for simd in grid_widths() {
+                let mut grid = Engine::new_for(&net, simd);
+                assert!(grid.k.grid.is_some(), "{name}, {simd:?}");
+                let mut gather = grid.clone();
+                gather.k.grid = None;
+                let mut moved = false;
+                for block in [1, 97, 1024, 5] {
+                    let mut a = vec![0.0; block * grid.channels()];
+                    let mut b = a.clone();
+                    grid.process(block, &mut a).unwrap();
+                    gather.process(block, &mut b).unwrap();
+                    let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+                    assert!(bits(&a) == bits(&b), "{name}, {simd:?}, block {block}");
+                    moved |= a.iter().any(|&v| v != 0.0);
+                    for l in 0..net.links.len() {
+                        let l = LinkId(l as u32);
+                        assert_eq!(grid.link_force(l).to_bits(), gather.link_force(l).to_bits());
+                    }
                 }
+                assert!(moved, "{name}: the outputs never moved");
             }
-            assert!(moved, "{name}: the outputs never moved");
         }
+    }
+
+    /// The vector widths the grid step is compiled for that this CPU has (and `CORDIS_SIMD`
+    /// allows), widest first: AVX-512, AVX2 (none elsewhere).
+    fn grid_widths() -> Vec<Simd> {
+        #[allow(unused_mut)]
+        let mut widths = Vec::new();
+        #[cfg(target_arch = "x86_64")]
+        {
+            if let Some(cpu) = Avx512::detect() {
+                widths.push(Simd::Avx512(cpu));
+            }
+            if Simd::detect() != Simd::None {
+                widths.push(Simd::Avx2); // (AVX-512 has AVX2's instructions)
+            }
+        }
+        widths
     }
 
     /// The grid step takes strings of REF, BUT and LNL links too, each cut into rows (`engine/grid.rs`
@@ -5097,7 +5117,7 @@ mod tests {
     #[test]
     fn the_grid_step_takes_strings_and_gives_the_gather_bits() {
         let refs = |_| Interaction::Ref { k: 0.1, z: 1e-4 };
-        if Avx512::detect().is_none() {
+        if Simd::detect() == Simd::None {
             assert!(Engine::new(&bank(1, 100, refs)).k.grid.is_none());
             return;
         }
@@ -5255,29 +5275,35 @@ mod tests {
             net.add_force_output(last);
             net.add_force_output(LinkId(1));
             net.add_force(MatId(0), Signal::Impulse { at: 30, amp: -0.1 });
-            let mut grid = Engine::new(&net);
-            let mut gather = grid.clone();
-            gather.k.grid = None;
-            let mut threaded = grid.clone();
-            threaded.set_parallel_threshold(0);
-            threaded.set_threads(3);
-            let mut moved = false;
-            for block in [1, 97, 1024, 5] {
-                let mut a = vec![0.0; block * grid.channels()];
-                let (mut b, mut c) = (a.clone(), a.clone());
-                grid.process(block, &mut a).unwrap();
-                gather.process(block, &mut b).unwrap();
-                threaded.process(block, &mut c).unwrap();
-                let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
-                assert!(bits(&a) == bits(&b), "{name}, block {block}");
-                assert!(bits(&c) == bits(&b), "{name}, block {block}, threads");
-                moved |= a.iter().any(|&v| v != 0.0);
-                for l in 0..net.links.len() {
-                    let l = LinkId(l as u32);
-                    assert_eq!(grid.link_force(l).to_bits(), gather.link_force(l).to_bits());
+            for simd in grid_widths() {
+                let mut grid = Engine::new_for(&net, simd);
+                assert!(grid.k.grid.is_some(), "{name}, {simd:?}");
+                let mut gather = grid.clone();
+                gather.k.grid = None;
+                let mut threaded = grid.clone();
+                threaded.set_parallel_threshold(0);
+                threaded.set_threads(3);
+                let mut moved = false;
+                for block in [1, 97, 1024, 5] {
+                    let mut a = vec![0.0; block * grid.channels()];
+                    let (mut b, mut c) = (a.clone(), a.clone());
+                    grid.process(block, &mut a).unwrap();
+                    gather.process(block, &mut b).unwrap();
+                    threaded.process(block, &mut c).unwrap();
+                    let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+                    assert!(bits(&a) == bits(&b), "{name}, {simd:?}, block {block}");
+                    assert!(
+                        bits(&c) == bits(&b),
+                        "{name}, {simd:?}, block {block}, threads"
+                    );
+                    moved |= a.iter().any(|&v| v != 0.0);
+                    for l in 0..net.links.len() {
+                        let l = LinkId(l as u32);
+                        assert_eq!(grid.link_force(l).to_bits(), gather.link_force(l).to_bits());
+                    }
                 }
+                assert!(moved, "{name}: the outputs never moved");
             }
-            assert!(moved, "{name}: the outputs never moved");
         }
         // not strings the grid step takes: an inner link declared from its right MAS to its
         // left, of another law, of another stiffness; a damper on each MAS (`air`)

@@ -40,6 +40,7 @@ mod lanes;
 mod network;
 mod parallel;
 mod signal;
+mod wide;
 
 pub use curve::{Curve, CurveError};
 pub use engine::{BlowUp, Engine, StepView};

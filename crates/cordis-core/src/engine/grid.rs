@@ -55,9 +55,11 @@
 //! are stepped each step as the gather step does, their links' forces computed into `sf` first
 //! ([`Grid::outside_links`], [`Grid::outside_mats`]); a model where they, their links and the
 //! fixes' terms are more than half the sheets' MAS keeps the gather step ([`OUTSIDE_SHARE`]).
-//! The loads and shuffles are AVX-512 (an [`Avx512`] token is the CPU's proof);
-//! `tests/engine.rs` compares every step with the reference, and `engine.rs`'s tests with the
-//! gather step.
+//! The rows are written once over `wide.rs`'s [`Vector`] and compiled for two widths: eight MAS
+//! per block with AVX-512, four with AVX2 (where a shift by a lane costs two shuffles, the right
+//! neighbours are loaded from one slot further instead); a CPU with neither keeps the gather
+//! step. `tests/engine.rs` compares every step with the reference, and `engine.rs`'s tests with
+//! the gather step in both widths.
 //!
 //! **Strings.** A string is a sheet too ([`Sheet::string_at`]): at least [`COLS_MIN`] MAS in
 //! consecutive storage slots, each tied to the next by a link of one law and parameters (end 1
@@ -76,20 +78,18 @@
 //! shows they give `ExactCurve::eval`'s bits), in a piece compiled for its pair of point counts
 //! ([`ExactPair::visit`]).
 
-#[cfg(target_arch = "x86_64")]
-use std::arch::x86_64::*;
 use std::ops::Range;
 
 use crate::curve::ExactCurve;
 #[cfg(target_arch = "x86_64")]
 use crate::curve::WideCurve;
-#[cfg(target_arch = "x86_64")]
-use crate::lanes::{load8, mask, store8};
-use crate::lanes::{Avx512, LANES};
+use crate::lanes::LANES;
 use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
+#[cfg(target_arch = "x86_64")]
+use crate::wide::{Vector, V4, V8};
 
 use super::{by_div, by_inv, ButLaw, ExactPair, Forces, Kernel, Law, LinkLaw, Lnl, MasLaw, PairFn};
-use super::{Claim, State, NEG};
+use super::{Claim, Simd, State, NEG};
 use super::{Positions, RefLaw, Roles, Run};
 use crate::{Interaction, Material, Network};
 
@@ -123,11 +123,11 @@ enum Strand {
 }
 
 /// A string's link law, as [`Sheet::piece`] computes it: one link at a time (the piece's ends)
-/// and eight (`force8`), each with the gather step's operands and operations.
+/// and a vector of them (`force_n`), each with the gather step's operands and operations.
 trait StringLaw: Copy {
-    /// The law's numbers broadcast to eight lanes, made once per piece.
+    /// The law's numbers broadcast to the lanes of `V`, made once per piece.
     #[cfg(target_arch = "x86_64")]
-    type Wide: Copy;
+    type Wide<V: Vector>: Copy;
 
     /// Whether [`Sheet::piece`] loads each block's neighbours on the right (from one slot
     /// further) rather than shifting them by a lane from the block and the next: a REF string
@@ -139,17 +139,16 @@ trait StringLaw: Copy {
     fn force(&self, xa: f64, va: f64, xb: f64, vb: f64) -> f64;
 
     /// # Safety
-    /// The CPU must have AVX-512F.
+    /// The CPU must have `V`'s instructions (see [`Vector`]).
     #[cfg(target_arch = "x86_64")]
-    unsafe fn wide(&self) -> Self::Wide;
+    unsafe fn wide<V: Vector>(&self) -> Self::Wide<V>;
 
-    /// The forces of eight links, lane by lane as `force`.
+    /// The forces of `V::N` links, lane by lane as `force`.
     ///
     /// # Safety
-    /// The CPU must have AVX-512F.
+    /// The CPU must have `V`'s instructions.
     #[cfg(target_arch = "x86_64")]
-    unsafe fn force8(w: &Self::Wide, xa: __m512d, va: __m512d, xb: __m512d, vb: __m512d)
-        -> __m512d;
+    unsafe fn force_n<V: Vector>(w: &Self::Wide<V>, xa: V, va: V, xb: V, vb: V) -> V;
 }
 
 /// REF links of `K`, `Z`.
@@ -160,7 +159,7 @@ impl StringLaw for RefLinks {
     const LOADS: bool = false;
 
     #[cfg(target_arch = "x86_64")]
-    type Wide = (__m512d, __m512d);
+    type Wide<V: Vector> = (V, V);
 
     #[inline(always)]
     fn force(&self, xa: f64, va: f64, xb: f64, vb: f64) -> f64 {
@@ -169,24 +168,15 @@ impl StringLaw for RefLinks {
 
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn wide(&self) -> Self::Wide {
-        (_mm512_set1_pd(self.0), _mm512_set1_pd(self.1))
+    unsafe fn wide<V: Vector>(&self) -> (V, V) {
+        (V::splat(self.0), V::splat(self.1))
     }
 
     /// `K (x1 - x2) + Z (v1 - v2)`, as `RefLaw::force`.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn force8(
-        &(k8, z8): &Self::Wide,
-        xa: __m512d,
-        va: __m512d,
-        xb: __m512d,
-        vb: __m512d,
-    ) -> __m512d {
-        _mm512_add_pd(
-            _mm512_mul_pd(k8, _mm512_sub_pd(xa, xb)),
-            _mm512_mul_pd(z8, _mm512_sub_pd(va, vb)),
-        )
+    unsafe fn force_n<V: Vector>(&(k, z): &(V, V), xa: V, va: V, xb: V, vb: V) -> V {
+        k.mul(xa.sub(xb)).add(z.mul(va.sub(vb)))
     }
 }
 
@@ -198,7 +188,7 @@ impl StringLaw for ButLinks {
     const LOADS: bool = false;
 
     #[cfg(target_arch = "x86_64")]
-    type Wide = (__m512d, __m512d, __m512d);
+    type Wide<V: Vector> = (V, V, V);
 
     #[inline(always)]
     fn force(&self, xa: f64, va: f64, xb: f64, vb: f64) -> f64 {
@@ -207,30 +197,16 @@ impl StringLaw for ButLinks {
 
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn wide(&self) -> Self::Wide {
-        (
-            _mm512_set1_pd(self.0),
-            _mm512_set1_pd(self.1),
-            _mm512_set1_pd(self.2),
-        )
+    unsafe fn wide<V: Vector>(&self) -> (V, V, V) {
+        (V::splat(self.0), V::splat(self.1), V::splat(self.2))
     }
 
     /// `K ((x1 - x2) + S) + Z (v1 - v2)` where `x2 - x1 < S`, else `+0.0`, as `ButLaw::force`.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn force8(
-        &(k8, z8, s8): &Self::Wide,
-        xa: __m512d,
-        va: __m512d,
-        xb: __m512d,
-        vb: __m512d,
-    ) -> __m512d {
-        let f = _mm512_add_pd(
-            _mm512_mul_pd(k8, _mm512_add_pd(_mm512_sub_pd(xa, xb), s8)),
-            _mm512_mul_pd(z8, _mm512_sub_pd(va, vb)),
-        );
-        let on = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(_mm512_sub_pd(xb, xa), s8);
-        _mm512_maskz_mov_pd(on, f)
+    unsafe fn force_n<V: Vector>(&(k, z, s): &(V, V, V), xa: V, va: V, xb: V, vb: V) -> V {
+        let f = k.mul(xa.sub(xb).add(s)).add(z.mul(va.sub(vb)));
+        f.keep(xb.sub(xa).lt(s))
     }
 }
 
@@ -242,7 +218,7 @@ impl<const A: usize, const B: usize> StringLaw for LnlLinks<A, B> {
     const LOADS: bool = true;
 
     #[cfg(target_arch = "x86_64")]
-    type Wide = (WideCurve<A>, WideCurve<B>);
+    type Wide<V: Vector> = (WideCurve<V, A>, WideCurve<V, B>);
 
     /// `elastic(x1 - x2) + viscous(v1 - v2)`, as the gather step's `exact_run`.
     #[inline(always)]
@@ -252,23 +228,14 @@ impl<const A: usize, const B: usize> StringLaw for LnlLinks<A, B> {
 
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn wide(&self) -> Self::Wide {
+    unsafe fn wide<V: Vector>(&self) -> Self::Wide<V> {
         (self.0.wide(), self.1.wide())
     }
 
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn force8(
-        (ck, cz): &Self::Wide,
-        xa: __m512d,
-        va: __m512d,
-        xb: __m512d,
-        vb: __m512d,
-    ) -> __m512d {
-        _mm512_add_pd(
-            ck.eval(_mm512_sub_pd(xa, xb)),
-            cz.eval(_mm512_sub_pd(va, vb)),
-        )
+    unsafe fn force_n<V: Vector>((ck, cz): &Self::Wide<V>, xa: V, va: V, xb: V, vb: V) -> V {
+        ck.eval(xa.sub(xb)).add(cz.eval(va.sub(vb)))
     }
 }
 
@@ -298,56 +265,28 @@ impl PairFn for LnlPiece<'_> {
     }
 }
 
-/// `[a[1], .., a[7], b[0]]`: the lanes of `a` shifted down by one, `b`'s first after them (the
-/// right neighbours of eight MAS from theirs and the next eight's). One `valignq`.
+/// `x(n+1) = 2 x - x' + F / M` (or `F (1 / M)`) of `V::N` MAS, as `by_div` (`by_inv`): `m`
+/// every MAS's `M` (`DIV`) or `1 / M`, or (`PER_MAS`) theirs, `mr[c0..c0 + V::N]`.
 ///
 /// # Safety
-/// The CPU must have AVX-512F.
+/// The CPU must have `V`'s instructions; with `PER_MAS`, `c0 + V::N <= mr.len()`.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn next1(a: __m512d, b: __m512d) -> __m512d {
-    let (a, b) = (_mm512_castpd_si512(a), _mm512_castpd_si512(b));
-    _mm512_castsi512_pd(_mm512_alignr_epi64::<1>(b, a))
-}
-
-/// `[a[7], b[0], .., b[6]]`: `a`'s last lane, then the lanes of `b` shifted up by one (the left
-/// neighbours of eight MAS from theirs and the eight before's). One `valignq`.
-///
-/// # Safety
-/// The CPU must have AVX-512F.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-unsafe fn prev1(a: __m512d, b: __m512d) -> __m512d {
-    let (a, b) = (_mm512_castpd_si512(a), _mm512_castpd_si512(b));
-    _mm512_castsi512_pd(_mm512_alignr_epi64::<7>(b, a))
-}
-
-/// `x(n+1) = 2 x - x' + F / M` (or `F (1 / M)`) of eight MAS, as `by_div` (`by_inv`): `m8`
-/// every MAS's `M` (`DIV`) or `1 / M`, or (`PER_MAS`) theirs, `mr[c0..c0 + 8]`.
-///
-/// # Safety
-/// The CPU must have AVX-512F; with `PER_MAS`, `c0 + 8 <= mr.len()`.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-unsafe fn update8<const DIV: bool, const PER_MAS: bool>(
-    x: __m512d,
-    xp: __m512d,
-    f: __m512d,
-    m8: __m512d,
+unsafe fn update<V: Vector, const DIV: bool, const PER_MAS: bool>(
+    x: V,
+    xp: V,
+    f: V,
+    m: V,
     mr: &[f64],
     c0: usize,
-) -> __m512d {
-    let m8 = if PER_MAS {
-        _mm512_loadu_pd(mr.as_ptr().add(c0))
+) -> V {
+    let m = if PER_MAS {
+        V::load(mr.as_ptr().add(c0))
     } else {
-        m8
+        m
     };
-    let by = if DIV {
-        _mm512_div_pd(f, m8)
-    } else {
-        _mm512_mul_pd(f, m8)
-    };
-    _mm512_add_pd(_mm512_sub_pd(_mm512_add_pd(x, x), xp), by)
+    let by = if DIV { f.div(m) } else { f.mul(m) };
+    x.add(x).sub(xp).add(by)
 }
 
 /// The sides of a MAS's link terms: the link to the MAS on its left, on its right, above, below.
@@ -409,7 +348,8 @@ pub(super) struct Grid {
 /// One membrane of a [`Grid`].
 #[derive(Clone, Debug)]
 struct Sheet {
-    cpu: Avx512,
+    /// The vector width the rows are stepped with: `Avx512` or `Avx2`, never `None`
+    simd: Simd,
     /// The storage slot of the MAS of row 0, column 0: row `r`, column `c` is at `base + r cols +
     /// c`
     base: usize,
@@ -552,9 +492,12 @@ struct RowArgs<'a> {
 
 impl Grid {
     /// The grid step of `k`, if its network holds membranes as the module's documentation says
-    /// and the CPU has AVX-512.
+    /// and the kernel is compiled for AVX-512 or AVX2.
     pub(super) fn new(k: &Kernel) -> Option<Grid> {
-        let cpu = k.tails()?;
+        let simd = k.simd;
+        if simd == Simd::None {
+            return None;
+        }
         // the MAS after MAS `s` that its terms tie it to
         let after = |s: usize| {
             let ends = terms(k, s).iter().filter_map(|&e| other_end(k, e));
@@ -579,7 +522,7 @@ impl Grid {
                 .collect();
             widths.sort_unstable();
             widths.dedup();
-            let found = (widths.into_iter()).find_map(|cols| Sheet::at(k, cpu, &law, base, cols));
+            let found = (widths.into_iter()).find_map(|cols| Sheet::at(k, simd, &law, base, cols));
             let found = found.or_else(|| {
                 if base < strings_from || !string(base) {
                     return None;
@@ -589,7 +532,7 @@ impl Grid {
                     end += 1;
                 }
                 strings_from = end;
-                Sheet::string_at(k, cpu, &law, base..end)
+                Sheet::string_at(k, simd, &law, base..end)
             });
             match found {
                 Some(sheet) => {
@@ -767,7 +710,7 @@ impl Sheet {
     /// the first term of its first MAS and of their inertia, with no border, fix or order yet.
     fn blank(
         k: &Kernel,
-        cpu: Avx512,
+        simd: Simd,
         mine: Range<usize>,
         rows: usize,
         cols: usize,
@@ -790,7 +733,7 @@ impl Sheet {
         };
         let first = (*terms(k, mine.start).first()? & !NEG) as usize;
         Some(Sheet {
-            cpu,
+            simd,
             base: mine.start,
             rows,
             cols,
@@ -815,7 +758,7 @@ impl Sheet {
     }
 
     /// The membrane of `cols` columns from MAS `base` on, if `k` has one there.
-    fn at(k: &Kernel, cpu: Avx512, law: &[Law], base: usize, cols: usize) -> Option<Sheet> {
+    fn at(k: &Kernel, simd: Simd, law: &[Law], base: usize, cols: usize) -> Option<Sheet> {
         let link = |e: u32| (e & !NEG) as usize;
         // down the rows whose first MAS is tied to the next row's
         let first_of = |r: usize| base + r * cols;
@@ -831,7 +774,7 @@ impl Sheet {
             return None;
         }
         let mine = base..base + rows * cols;
-        let mut g = Sheet::blank(k, cpu, mine.clone(), rows, cols)?;
+        let mut g = Sheet::blank(k, simd, mine.clone(), rows, cols)?;
         let kz = (g.k, g.z);
         let same = |l: usize| is_ref(k, law, kz, l);
         for s in mine.clone() {
@@ -929,10 +872,10 @@ impl Sheet {
     /// may have the MAS at either end (its force is odd in its ends, see the module's doc); a BUT
     /// or LNL link must have it where a neighbour would (end 2 on the left, end 1 on the right),
     /// since its force is not. Its rows are pieces of about [`PIECE`] MAS, `starts`.
-    fn string_at(k: &Kernel, cpu: Avx512, law: &[Law], run: Range<usize>) -> Option<Sheet> {
+    fn string_at(k: &Kernel, simd: Simd, law: &[Law], run: Range<usize>) -> Option<Sheet> {
         let n = run.len();
         let rows = n.div_ceil(PIECE);
-        let mut g = Sheet::blank(k, cpu, run.clone(), rows, 0)?;
+        let mut g = Sheet::blank(k, simd, run.clone(), rows, 0)?;
         g.starts = (0..=rows).map(|r| r * n / rows).collect();
         (g.left, g.right) = (vec![FREE], vec![FREE]);
         let first = (*terms(k, run.start).first()? & !NEG) as usize;
@@ -1216,27 +1159,82 @@ impl Sheet {
         }
     }
 
+    /// (in debug builds) That this CPU has the sheet's vector width (an engine made for AVX2
+    /// may run on a CPU with AVX-512, which has AVX2's instructions too).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn debug_check_simd(&self) {
+        debug_assert!(match self.simd {
+            Simd::Avx512(_) => Simd::detect() == self.simd,
+            Simd::Avx2 => Simd::detect() != Simd::None,
+            Simd::None => false,
+        });
+    }
+
+    /// [`Sheet::row`] compiled for the CPU's vector width, the row's order and the inertia law.
     fn row_for_cpu(&self, r: usize, args: RowArgs<'_>) {
-        debug_assert_eq!(Some(self.cpu), Avx512::detect());
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: `self.cpu` exists, so the CPU has AVX-512F (see `Avx512::detect`).
-        unsafe {
+        {
+            self.debug_check_simd();
+            macro_rules! row {
+                ($div:literal, $up_last:literal, $per:literal) => {
+                    match self.simd {
+                        // SAFETY: as in `piece_as`.
+                        Simd::Avx512(_) => unsafe {
+                            self.row_avx512::<$div, $up_last, $per>(r, args)
+                        },
+                        // SAFETY: as in `piece_as`.
+                        Simd::Avx2 => unsafe { self.row_avx2::<$div, $up_last, $per>(r, args) },
+                        Simd::None => {
+                            unreachable!("a sheet is made only with vectors (`Grid::new`)")
+                        }
+                    }
+                };
+            }
             match (self.div, self.mid[r] == Order::UP_LAST, self.per_mas) {
-                (true, true, false) => self.row::<true, true, false>(r, args),
-                (true, false, false) => self.row::<true, false, false>(r, args),
-                (false, true, false) => self.row::<false, true, false>(r, args),
-                (false, false, false) => self.row::<false, false, false>(r, args),
-                (true, true, true) => self.row::<true, true, true>(r, args),
-                (true, false, true) => self.row::<true, false, true>(r, args),
-                (false, true, true) => self.row::<false, true, true>(r, args),
-                (false, false, true) => self.row::<false, false, true>(r, args),
+                (true, true, false) => row!(true, true, false),
+                (true, false, false) => row!(true, false, false),
+                (false, true, false) => row!(false, true, false),
+                (false, false, false) => row!(false, false, false),
+                (true, true, true) => row!(true, true, true),
+                (true, false, true) => row!(true, false, true),
+                (false, true, true) => row!(false, true, true),
+                (false, false, true) => row!(false, false, true),
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
             let _ = (r, args);
-            unreachable!("a grid step needs an Avx512 token, which exists only on x86-64");
+            unreachable!("a grid step needs AVX-512 or AVX2, which exist only on x86-64");
         }
+    }
+
+    /// [`Sheet::row`] eight MAS at a time.
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn row_avx512<const DIV: bool, const UP_LAST: bool, const PER_MAS: bool>(
+        &self,
+        r: usize,
+        a: RowArgs<'_>,
+    ) {
+        self.row::<V8, DIV, UP_LAST, PER_MAS>(r, a)
+    }
+
+    /// [`Sheet::row`] four MAS at a time.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn row_avx2<const DIV: bool, const UP_LAST: bool, const PER_MAS: bool>(
+        &self,
+        r: usize,
+        a: RowArgs<'_>,
+    ) {
+        self.row::<V4, DIV, UP_LAST, PER_MAS>(r, a)
     }
 
     fn piece_for_cpu(&self, r: usize, x: &[f64], xp: &[f64], ms: &[f64], next: &mut [f64]) {
@@ -1255,7 +1253,8 @@ impl Sheet {
         }
     }
 
-    /// [`Sheet::piece`] of links of `law`, compiled for each inertia law.
+    /// [`Sheet::piece`] of links of `law`, compiled for the CPU's vector width and each
+    /// inertia law.
     fn piece_as<L: StringLaw>(
         &self,
         law: L,
@@ -1265,38 +1264,49 @@ impl Sheet {
         ms: &[f64],
         next: &mut [f64],
     ) {
-        debug_assert_eq!(Some(self.cpu), Avx512::detect());
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: `self.cpu` exists, so the CPU has AVX-512F (see `Avx512::detect`).
-        unsafe {
+        {
+            self.debug_check_simd();
+            macro_rules! piece {
+                ($div:literal, $per:literal) => {
+                    match self.simd {
+                        // SAFETY: `Simd::Avx512` holds the proof that the CPU has AVX-512F
+                        // (`Avx512::detect`).
+                        Simd::Avx512(_) => unsafe {
+                            self.piece_avx512::<$div, $per, L>(law, r, x, xp, ms, next)
+                        },
+                        // SAFETY: `Simd::detect` returns `Avx2` only when the CPU has AVX2 (and
+                        // an engine does not move to another machine).
+                        Simd::Avx2 => unsafe {
+                            self.piece_avx2::<$div, $per, L>(law, r, x, xp, ms, next)
+                        },
+                        Simd::None => {
+                            unreachable!("a sheet is made only with vectors (`Grid::new`)")
+                        }
+                    }
+                };
+            }
             match (self.div, self.per_mas) {
-                (true, false) => self.piece::<true, false, L>(law, r, x, xp, ms, next),
-                (false, false) => self.piece::<false, false, L>(law, r, x, xp, ms, next),
-                (true, true) => self.piece::<true, true, L>(law, r, x, xp, ms, next),
-                (false, true) => self.piece::<false, true, L>(law, r, x, xp, ms, next),
+                (true, false) => piece!(true, false),
+                (false, false) => piece!(false, false),
+                (true, true) => piece!(true, true),
+                (false, true) => piece!(false, true),
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
             let _ = (law, r, x, xp, ms, next);
-            unreachable!("a grid step needs an Avx512 token, which exists only on x86-64");
+            unreachable!("a grid step needs AVX-512 or AVX2, which exist only on x86-64");
         }
     }
 
-    /// Row `r` of a string (a piece of it): `x(n+1)` into `next`, from the state `x`, `xp`. Each
-    /// MAS's `1 / M` or `M` is `Sheet::m`, or (`PER_MAS`) its own in `ms`. Eight MAS at a time,
-    /// two blocks per loop turn: the velocities of eight and of their neighbours on the right
-    /// (shifted by a lane from the next eight's, or with `L::LOADS` loaded from one slot
-    /// further), their links on the right (`L::force8`), the links on the left the same shifted
-    /// the other way (the first from the block before), `F(n) = (0 + f_left) - f_right` from
-    /// `+0.0`, whichever order the MAS's two terms
-    /// come in: `(0 + a) + b = (0 + b) + a` bit for bit (addition commutes, and `0 + a` is `a`
-    /// but for `a = -0.0`, where both sides are `b`, or `+0.0` if `b` is `-0.0` too; only the
-    /// payload of a NaN, a blow-up either way, could tell). A free end has no term: its link is
-    /// a `+0.0` here, which changes no bit (`(0 + 0) - f = 0 - f`, `y - 0 = y`).
+    /// [`Sheet::piece`] eight MAS at a time.
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512F.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    fn piece<const DIV: bool, const PER_MAS: bool, L: StringLaw>(
+    unsafe fn piece_avx512<const DIV: bool, const PER_MAS: bool, L: StringLaw>(
         &self,
         law: L,
         r: usize,
@@ -1305,12 +1315,60 @@ impl Sheet {
         ms: &[f64],
         next: &mut [f64],
     ) {
+        self.piece::<V8, DIV, PER_MAS, L>(law, r, x, xp, ms, next)
+    }
+
+    /// [`Sheet::piece`] four MAS at a time.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn piece_avx2<const DIV: bool, const PER_MAS: bool, L: StringLaw>(
+        &self,
+        law: L,
+        r: usize,
+        x: &[f64],
+        xp: &[f64],
+        ms: &[f64],
+        next: &mut [f64],
+    ) {
+        self.piece::<V4, DIV, PER_MAS, L>(law, r, x, xp, ms, next)
+    }
+
+    /// Row `r` of a string (a piece of it): `x(n+1)` into `next`, from the state `x`, `xp`. Each
+    /// MAS's `1 / M` or `M` is `Sheet::m`, or (`PER_MAS`) its own in `ms`. `V::N` MAS at a time
+    /// (a *block*), two blocks per loop turn: the velocities of a block and of their neighbours
+    /// on the right (shifted by a lane from the next block's, or with `L::LOADS` loaded from one
+    /// slot further), their links on the right (`L::force_n`), the links on the left the same
+    /// shifted the other way (the first from the block before), `F(n) = (0 + f_left) - f_right`
+    /// from `+0.0`, whichever order the MAS's two terms
+    /// come in: `(0 + a) + b = (0 + b) + a` bit for bit (addition commutes, and `0 + a` is `a`
+    /// but for `a = -0.0`, where both sides are `b`, or `+0.0` if `b` is `-0.0` too; only the
+    /// payload of a NaN, a blow-up either way, could tell). A free end has no term: its link is
+    /// a `+0.0` here, which changes no bit (`(0 + 0) - f = 0 - f`, `y - 0 = y`).
+    ///
+    /// # Safety
+    /// The CPU must have `V`'s instructions, and the caller be compiled with them.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn piece<V: Vector, const DIV: bool, const PER_MAS: bool, L: StringLaw>(
+        &self,
+        law: L,
+        r: usize,
+        x: &[f64],
+        xp: &[f64],
+        ms: &[f64],
+        next: &mut [f64],
+    ) {
+        let n = V::N;
+        let loads = L::LOADS || !V::SHIFT_IS_ONE;
         let slots = self.slots(&(r..r + 1));
         let (lo, hi, len) = (slots.start, slots.end, slots.len());
         // every access below is within these (checked once here)
         let (xr, pr) = (&x[slots.clone()], &xp[slots.clone()]);
         let mr = if PER_MAS { &ms[slots] } else { &[] };
-        assert!(next.len() == len && len >= COLS_MIN);
+        assert!(next.len() == len && len >= COLS_MIN && COLS_MIN >= 2 * n);
         let link = |xa: f64, va: f64, xb: f64, vb: f64| law.force(xa, va, xb, vb);
         // the neighbour (a storage slot) before the piece's first MAS and after its last, if any
         let before = match (r, self.left[0]) {
@@ -1325,106 +1383,103 @@ impl Sheet {
         };
         let h0 = before.map_or(0.0, |b| link(x[b], x[b] - xp[b], xr[0], xr[0] - pr[0]));
         // whole blocks: MAS `0..full`, the last of which has a right neighbour in the piece; the
-        // last block, MAS `full..len` (1 to 8), the last of which has the neighbour after the
+        // last block, MAS `full..len` (1 to `n`), the last of which has the neighbour after the
         // piece
-        let full = (len - 1) / LANES * LANES;
-        let last = (1u16 << (len - full - 1)) as __mmask8;
-        // SAFETY: every load and store is of 8 items from `c0` or `c0 + 1` where `c0 < full`, a
-        // multiple of 8 (so `c0 + 1 + 8 <= full + 1 <= len`), or, the next block's, from `c0 +
-        // 8` when `c0 + 16 <= len`, within `xr`, `pr`, `next` and with `PER_MAS` `mr` (`len`
+        let full = (len - 1) / n * n;
+        let last = V::lane(len - full - 1);
+        // SAFETY: every load and store is of `n` items from `c0` or `c0 + 1` where `c0 < full`,
+        // a multiple of `n` (so `c0 + 1 + n <= full + 1 <= len`), or, the next block's, from `c0
+        // + n` when `c0 + 2 n <= len`, within `xr`, `pr`, `next` and with `PER_MAS` `mr` (`len`
         // each, asserted above; `mr` sliced to `len`); else the next block's first item alone,
-        // at `c0 + 8 <= full < len`. The last block's are `lanes::load8` and `store8` of
+        // at `c0 + n <= full < len`. The last block's are `V::load_part` and `store_part` of
         // `xr`, `pr`, `mr`, `next` from `full`, which touch those slices' items alone.
-        unsafe {
-            let (wide, m8) = (law.wide(), _mm512_set1_pd(self.m));
-            let zero = _mm512_setzero_pd();
-            let mut hprev = _mm512_set1_pd(h0);
-            let mut c0 = 0;
-            // (without `L::LOADS`) the block's `x`, `x'`, `v`, loaded with the block before
-            let mut xa = _mm512_loadu_pd(xr.as_ptr());
-            let mut pa = _mm512_loadu_pd(pr.as_ptr());
-            let mut va = _mm512_sub_pd(xa, pa);
-            // one block of eight MAS from `c0` (a macro, so that the loop below holds it twice)
-            macro_rules! block {
-                () => {
-                    // the block's `x`, `x'`, `v` and their neighbours' on the right
-                    let (xa, pa, va, xb, vb) = if L::LOADS {
-                        // loaded from `c0` and `c0 + 1`
-                        let (at, pat) = (xr.as_ptr().add(c0), pr.as_ptr().add(c0));
-                        let (xa, pa) = (_mm512_loadu_pd(at), _mm512_loadu_pd(pat));
-                        let (xb, pb) = (_mm512_loadu_pd(at.add(1)), _mm512_loadu_pd(pat.add(1)));
-                        (xa, pa, _mm512_sub_pd(xa, pa), xb, _mm512_sub_pd(xb, pb))
+        let (wide, m) = (law.wide::<V>(), V::splat(self.m));
+        let zero = V::zero();
+        let mut hprev = V::splat(h0);
+        let mut c0 = 0;
+        // (without `L::LOADS`) the block's `x`, `x'`, `v`, loaded with the block before
+        let mut xa = V::load(xr.as_ptr());
+        let mut pa = V::load(pr.as_ptr());
+        let mut va = xa.sub(pa);
+        // one block of `n` MAS from `c0` (a macro, so that the loop below holds it twice)
+        macro_rules! block {
+            () => {
+                // the block's `x`, `x'`, `v` and their neighbours' on the right
+                let (xa, pa, va, xb, vb) = if loads {
+                    // loaded from `c0` and `c0 + 1`
+                    let (at, pat) = (xr.as_ptr().add(c0), pr.as_ptr().add(c0));
+                    let (xa, pa) = (V::load(at), V::load(pat));
+                    let (xb, pb) = (V::load(at.add(1)), V::load(pat.add(1)));
+                    (xa, pa, xa.sub(pa), xb, xb.sub(pb))
+                } else {
+                    // shifted by a lane from this block's and the next block's
+                    let (xn, pn) = if c0 + 2 * n <= len {
+                        let at = c0 + n;
+                        (V::load(xr.as_ptr().add(at)), V::load(pr.as_ptr().add(at)))
                     } else {
-                        // shifted by a lane from this block's and the next block's
-                        let (xn, pn) = if c0 + 2 * LANES <= len {
-                            let at = c0 + LANES;
-                            (
-                                _mm512_loadu_pd(xr.as_ptr().add(at)),
-                                _mm512_loadu_pd(pr.as_ptr().add(at)),
-                            )
-                        } else {
-                            (
-                                _mm512_set1_pd(xr[c0 + LANES]),
-                                _mm512_set1_pd(pr[c0 + LANES]),
-                            )
-                        };
-                        let vn = _mm512_sub_pd(xn, pn);
-                        let xb = next1(xa, xn);
-                        let vb = next1(va, vn);
-                        let here = (xa, pa, va);
-                        (xa, pa, va) = (xn, pn, vn);
-                        (here.0, here.1, here.2, xb, vb)
+                        (V::splat(xr[c0 + n]), V::splat(pr[c0 + n]))
                     };
-                    let h = L::force8(&wide, xa, va, xb, vb);
-                    let left = prev1(hprev, h);
-                    let f = _mm512_sub_pd(_mm512_add_pd(zero, left), h);
-                    let out = update8::<DIV, PER_MAS>(xa, pa, f, m8, mr, c0);
-                    _mm512_storeu_pd(next.as_mut_ptr().add(c0), out);
-                    hprev = h;
-                    c0 += LANES;
+                    let vn = xn.sub(pn);
+                    let xb = xa.next1(xn);
+                    let vb = va.next1(vn);
+                    let here = (xa, pa, va);
+                    (xa, pa, va) = (xn, pn, vn);
+                    (here.0, here.1, here.2, xb, vb)
                 };
-            }
-            while c0 + LANES < full {
-                block!();
-                block!();
-            }
-            #[allow(unused_assignments)] // (the last block's `c0` and next block are not read)
-            if c0 < full {
-                block!();
-            }
-            // the last block: its right neighbours within it, then the one after the piece in
-            // the last lane, or (a free end) a `+0.0` link there
-            let (xa, pa) = (load8(&xr[full..]), load8(&pr[full..]));
-            let va = _mm512_sub_pd(xa, pa);
-            let (mut xb, mut vb) = (next1(xa, zero), next1(va, zero));
-            if let Some(a) = after {
-                xb = _mm512_mask_mov_pd(xb, last, _mm512_set1_pd(x[a]));
-                vb = _mm512_mask_mov_pd(vb, last, _mm512_set1_pd(x[a] - xp[a]));
-            }
-            let mut h = L::force8(&wide, xa, va, xb, vb);
-            if after.is_none() {
-                h = _mm512_mask_mov_pd(h, last, zero);
-            }
-            let f = _mm512_sub_pd(_mm512_add_pd(zero, prev1(hprev, h)), h);
-            let m = if PER_MAS { load8(&mr[full..]) } else { m8 };
-            store8(
-                &mut next[full..],
-                update8::<DIV, false>(xa, pa, f, m, mr, full),
-            );
+                let h = L::force_n(&wide, xa, va, xb, vb);
+                let left = hprev.prev1(h);
+                let f = zero.add(left).sub(h);
+                update::<V, DIV, PER_MAS>(xa, pa, f, m, mr, c0).store(next.as_mut_ptr().add(c0));
+                hprev = h;
+                c0 += n;
+            };
         }
+        while c0 + n < full {
+            block!();
+            block!();
+        }
+        #[allow(unused_assignments)] // (the last block's `c0` and next block are not read)
+        if c0 < full {
+            block!();
+        }
+        // the last block: its right neighbours within it, then the one after the piece in the
+        // last lane, or (a free end) a `+0.0` link there
+        let (xa, pa) = (V::load_part(&xr[full..]), V::load_part(&pr[full..]));
+        let va = xa.sub(pa);
+        let (mut xb, mut vb) = (xa.next1(zero), va.next1(zero));
+        if let Some(a) = after {
+            xb = xb.select(last, V::splat(x[a]));
+            vb = vb.select(last, V::splat(x[a] - xp[a]));
+        }
+        let mut h = L::force_n(&wide, xa, va, xb, vb);
+        if after.is_none() {
+            h = h.select(last, zero);
+        }
+        let f = zero.add(hprev.prev1(h)).sub(h);
+        let m = if PER_MAS {
+            V::load_part(&mr[full..])
+        } else {
+            m
+        };
+        update::<V, DIV, false>(xa, pa, f, m, mr, full).store_part(&mut next[full..]);
     }
 
     /// Row `r`: `x(n+1)` into `next`, from the state `x`, `xp`, the row below (`x(n)`, `x(n-1)`,
     /// `cols` each: the next row, or the bottom grounds), the row's velocities `vc`; writes the
     /// row below's velocities into `vn` and its links down into `up` (where they were the links up).
-    /// Each MAS's `1 / M` or `M` is `Sheet::m`, or (`PER_MAS`) its own in `ms`.
+    /// Each MAS's `1 / M` or `M` is `Sheet::m`, or (`PER_MAS`) its own in `ms`. `V::N` MAS at a
+    /// time.
+    ///
+    /// # Safety
+    /// The CPU must have `V`'s instructions, and the caller be compiled with them.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn row<const DIV: bool, const UP_LAST: bool, const PER_MAS: bool>(
+    #[inline(always)]
+    unsafe fn row<V: Vector, const DIV: bool, const UP_LAST: bool, const PER_MAS: bool>(
         &self,
         r: usize,
         a: RowArgs<'_>,
     ) {
+        let n = V::N;
         let (cols, stride) = (self.cols, self.stride());
         let RowArgs {
             x,
@@ -1443,93 +1498,101 @@ impl Sheet {
         let m_at = |c: usize| if PER_MAS { mr[c] } else { self.m };
         assert!(xd.len() == cols && pd.len() == cols && next.len() == cols);
         assert!(vc.len() == stride && vn.len() == stride && up.len() == stride);
-        assert!(cols >= COLS_MIN);
+        assert!(cols >= COLS_MIN && n <= LANES);
         let law = RefLinks(self.k, self.z);
         let link = |xa: f64, va: f64, xb: f64, vb: f64| law.force(xa, va, xb, vb);
         // the link on the left of column 0, from this row's left ground
         let gl = self.left[r] as usize;
         let h0 = link(x[gl], x[gl] - xp[gl], xr[0], vc[0]);
         // whole blocks: columns `0..full`, the last of which has a right neighbour in the row;
-        // the last block, columns `full..cols` (1 to 8, the lanes of `tail`), the last of which
+        // the last block, columns `full..cols` (1 to `n`, the lanes of `tail`), the last of which
         // has this row's right ground
-        let full = (cols - 1) / LANES * LANES;
-        let tail = mask(cols - full);
+        let full = (cols - 1) / n * n;
+        let tail = V::first(cols - full);
         let gr = self.right[r] as usize;
         let (xg, vg) = (x[gr], x[gr] - xp[gr]);
         let (u0, u_last) = (up[0], up[cols - 1]);
-        // SAFETY: every load and store is of 8 items from `c0 <= full` on, `full + 8 <= cols + 7
-        // < stride`, within the row buffers (`stride` each), or within `xr`, `pr`, `xd`, `pd`,
-        // `next`, and with `PER_MAS` `mr` (`cols` each, asserted above; `mr` sliced to `cols`):
-        // whole from `c0 < full` (so `c0 + 8 <= full < cols`), or `lanes::load8` and `store8`
-        // of their items from `full`, which touch those slices' items alone.
-        unsafe {
-            let w = law.wide();
-            let m8 = _mm512_set1_pd(self.m);
-            let zero = _mm512_setzero_pd();
-            let mut xa = _mm512_loadu_pd(xr.as_ptr());
-            let mut va = _mm512_loadu_pd(vc.as_ptr());
-            let mut hprev = _mm512_set1_pd(h0);
-            let mut c0 = 0;
-            // eight items of a row from `c0`, or (`$tail`) those of the last block
-            macro_rules! load {
-                ($at:expr, $tail:expr) => {
-                    if $tail {
-                        load8(&$at[c0..])
-                    } else {
-                        _mm512_loadu_pd($at.as_ptr().add(c0))
-                    }
-                };
-            }
-            // the block from `c0` with its right neighbours `xb`, `vb`, whole or (`$tail`) the
-            // lanes of `tail`; gives its links on the right
-            macro_rules! block {
-                ($xb:expr, $vb:expr, $tail:expr) => {{
-                    let (xb, vb) = ($xb, $vb);
-                    let h = RefLinks::force8(&w, xa, va, xb, vb);
-                    let left = prev1(hprev, h);
-                    let xdn = load!(xd, $tail);
-                    let vd = _mm512_sub_pd(xdn, load!(pd, $tail));
-                    _mm512_storeu_pd(vn.as_mut_ptr().add(c0), vd);
-                    let d = RefLinks::force8(&w, xa, va, xdn, vd);
-                    let u = _mm512_loadu_pd(up.as_ptr().add(c0));
-                    _mm512_storeu_pd(up.as_mut_ptr().add(c0), d);
-                    // `F(n)` from `+0.0`, term by term
-                    let f = _mm512_sub_pd(_mm512_add_pd(zero, left), h);
-                    let f = if UP_LAST {
-                        _mm512_add_pd(_mm512_sub_pd(f, d), u)
-                    } else {
-                        _mm512_sub_pd(_mm512_add_pd(f, u), d)
-                    };
-                    let p = load!(pr, $tail);
-                    if $tail {
-                        let m = if PER_MAS { load8(&mr[c0..]) } else { m8 };
-                        store8(&mut next[c0..], update8::<DIV, false>(xa, p, f, m, mr, c0));
-                    } else {
-                        let out = update8::<DIV, PER_MAS>(xa, p, f, m8, mr, c0);
-                        _mm512_storeu_pd(next.as_mut_ptr().add(c0), out);
-                    }
-                    h
-                }};
-            }
-            while c0 < full {
-                let xn = if c0 + LANES < full {
-                    _mm512_loadu_pd(xr.as_ptr().add(c0 + LANES))
+        // SAFETY: every load and store is of `n` items from `c0 <= full` on, `full + n <= cols +
+        // n - 1 < stride`, within the row buffers (`stride` each), or within `xr`, `pr`, `xd`,
+        // `pd`, `next`, and with `PER_MAS` `mr` (`cols` each, asserted above; `mr` sliced to
+        // `cols`): whole from `c0 < full` (so `c0 + n <= full < cols`), or `V::load_part` and
+        // `store_part` of their items from `full`, which touch those slices' items alone.
+        let w = law.wide::<V>();
+        let m = V::splat(self.m);
+        let zero = V::zero();
+        let mut xa = V::load(xr.as_ptr());
+        let mut va = V::load(vc.as_ptr());
+        let mut hprev = V::splat(h0);
+        let mut c0 = 0;
+        // `n` items of a row from `c0`, or (`$tail`) those of the last block
+        macro_rules! load {
+            ($at:expr, $tail:expr) => {
+                if $tail {
+                    V::load_part(&$at[c0..])
                 } else {
-                    load8(&xr[c0 + LANES..])
-                };
-                let vnx = _mm512_loadu_pd(vc.as_ptr().add(c0 + LANES));
-                hprev = block!(next1(xa, xn), next1(va, vnx), false);
-                (xa, va) = (xn, vnx);
-                c0 += LANES;
-            }
-            // the last block: its right neighbours within it, then the ground's in the last
-            // lane (`vc`'s lanes after the row's are left out, whatever they hold)
-            va = _mm512_maskz_mov_pd(tail, va);
-            let last = (1u16 << (cols - full - 1)) as __mmask8;
-            let xb = _mm512_mask_mov_pd(next1(xa, zero), last, _mm512_set1_pd(xg));
-            let vb = _mm512_mask_mov_pd(next1(va, zero), last, _mm512_set1_pd(vg));
-            let _ = block!(xb, vb, true);
+                    V::load($at.as_ptr().add(c0))
+                }
+            };
         }
+        // the block from `c0` with its right neighbours `xb`, `vb`, whole or (`$tail`) the
+        // lanes of `tail`; gives its links on the right
+        macro_rules! block {
+            ($xb:expr, $vb:expr, $tail:expr) => {{
+                let (xb, vb) = ($xb, $vb);
+                let h = RefLinks::force_n(&w, xa, va, xb, vb);
+                let left = hprev.prev1(h);
+                let xdn = load!(xd, $tail);
+                let vd = xdn.sub(load!(pd, $tail));
+                vd.store(vn.as_mut_ptr().add(c0));
+                let d = RefLinks::force_n(&w, xa, va, xdn, vd);
+                let u = V::load(up.as_ptr().add(c0));
+                d.store(up.as_mut_ptr().add(c0));
+                // `F(n)` from `+0.0`, term by term
+                let f = zero.add(left).sub(h);
+                let f = if UP_LAST {
+                    f.sub(d).add(u)
+                } else {
+                    f.add(u).sub(d)
+                };
+                let p = load!(pr, $tail);
+                if $tail {
+                    let m = if PER_MAS { V::load_part(&mr[c0..]) } else { m };
+                    update::<V, DIV, false>(xa, p, f, m, mr, c0).store_part(&mut next[c0..]);
+                } else {
+                    let out = update::<V, DIV, PER_MAS>(xa, p, f, m, mr, c0);
+                    out.store(next.as_mut_ptr().add(c0));
+                }
+                h
+            }};
+        }
+        while c0 < full {
+            let xn = if c0 + n < full {
+                V::load(xr.as_ptr().add(c0 + n))
+            } else {
+                V::load_part(&xr[c0 + n..])
+            };
+            let vnx = V::load(vc.as_ptr().add(c0 + n));
+            // the right neighbours: shifted by a lane, or (where that takes two instructions)
+            // loaded from one column further
+            let (xb, vb) = if V::SHIFT_IS_ONE {
+                (xa.next1(xn), va.next1(vnx))
+            } else {
+                (
+                    V::load(xr.as_ptr().add(c0 + 1)),
+                    V::load(vc.as_ptr().add(c0 + 1)),
+                )
+            };
+            hprev = block!(xb, vb, false);
+            (xa, va) = (xn, vnx);
+            c0 += n;
+        }
+        // the last block: its right neighbours within it, then the ground's in the last lane
+        // (`vc`'s lanes after the row's are left out, whatever they hold)
+        va = va.keep(tail);
+        let last = V::lane(cols - full - 1);
+        let xb = xa.next1(zero).select(last, V::splat(xg));
+        let vb = va.next1(zero).select(last, V::splat(vg));
+        let _ = block!(xb, vb, true);
         // the first and last MAS again if their terms come in another order than the row's
         let mid = if UP_LAST {
             Order::UP_LAST

@@ -1,0 +1,393 @@
+//! Vectors of `f64` lanes, eight (AVX-512, [`V8`]) or four (AVX2, [`V4`]), behind one trait.
+//!
+//! The grid step's rows (`engine/grid.rs`) and the LNL curves it evaluates (`curve.rs`'s
+//! `WideCurve`) are written once, generic over a [`Vector`], and compiled for each width: a CPU
+//! with AVX-512 steps eight MAS at a time, one with AVX2 alone four. Every operation is an IEEE
+//! operation lane by lane (no fused multiply-add, no reassociation), the same in both widths, so
+//! both give the same bits as the scalar code they stand for.
+//!
+//! The methods are `#[inline(always)]` and have no target features of their own: they are
+//! compiled with those of the function they are inlined into, which must have the width's
+//! (`avx512f` for [`V8`], `avx2` for [`V4`]). That is each method's safety condition.
+
+#[cfg(target_arch = "x86_64")]
+use std::arch::x86_64::*;
+
+/// `f64` lanes side by side, and the operations of the grid step on them.
+///
+/// # Safety (every method)
+/// The CPU has the width's instructions ([`V8`]: AVX-512F; [`V4`]: AVX2), and the calling
+/// function is compiled with them.
+#[cfg(target_arch = "x86_64")]
+pub(crate) trait Vector: Copy {
+    /// Lanes.
+    const N: usize;
+    /// Whether [`Vector::next1`] is one instruction (else two, across the halves of the vector).
+    const SHIFT_IS_ONE: bool;
+    /// A set of lanes (the result of a compare).
+    type Mask: Copy;
+
+    unsafe fn splat(v: f64) -> Self;
+    unsafe fn zero() -> Self;
+    /// `N` items from `p` (no alignment needed).
+    unsafe fn load(p: *const f64) -> Self;
+    /// `N` items to `p`.
+    unsafe fn store(self, p: *mut f64);
+    /// The first `min(s.len(), N)` items of `s`, `0.0` in the other lanes; nothing outside `s` is
+    /// read.
+    unsafe fn load_part(s: &[f64]) -> Self;
+    /// Lanes `0..min(out.len(), N)` into `out`; nothing else is written.
+    unsafe fn store_part(self, out: &mut [f64]);
+    unsafe fn add(self, b: Self) -> Self;
+    unsafe fn sub(self, b: Self) -> Self;
+    unsafe fn mul(self, b: Self) -> Self;
+    unsafe fn div(self, b: Self) -> Self;
+    /// `if self > b { self } else { b }`, lane by lane (`maxpd`: `b` for a NaN or two zeros).
+    unsafe fn max(self, b: Self) -> Self;
+    /// The lanes where `self <= b` (false where either is NaN).
+    unsafe fn le(self, b: Self) -> Self::Mask;
+    /// The lanes where `self < b` (false where either is NaN).
+    unsafe fn lt(self, b: Self) -> Self::Mask;
+    /// `if m { b } else { self }`, lane by lane.
+    unsafe fn select(self, m: Self::Mask, b: Self) -> Self;
+    /// `if m { self } else { +0.0 }`, lane by lane.
+    unsafe fn keep(self, m: Self::Mask) -> Self;
+    /// Lanes `0..n` (`n <= N`).
+    unsafe fn first(n: usize) -> Self::Mask;
+    /// Lane `i` alone (`i < N`).
+    unsafe fn lane(i: usize) -> Self::Mask;
+    /// `[self[1], .., self[N-1], b[0]]`: the right neighbours of `N` items from theirs and the
+    /// next `N`'s.
+    unsafe fn next1(self, b: Self) -> Self;
+    /// `[self[N-1], b[0], .., b[N-2]]`: the left neighbours of the `N` items `b` from theirs and
+    /// the `N` before's.
+    unsafe fn prev1(self, b: Self) -> Self;
+}
+
+/// Eight lanes: AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+pub(crate) struct V8(pub(crate) __m512d);
+
+/// Four lanes: AVX2.
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+pub(crate) struct V4(pub(crate) __m256d);
+
+#[cfg(target_arch = "x86_64")]
+impl Vector for V8 {
+    const N: usize = 8;
+    const SHIFT_IS_ONE: bool = true;
+    type Mask = __mmask8;
+
+    #[inline(always)]
+    unsafe fn splat(v: f64) -> Self {
+        V8(_mm512_set1_pd(v))
+    }
+    #[inline(always)]
+    unsafe fn zero() -> Self {
+        V8(_mm512_setzero_pd())
+    }
+    #[inline(always)]
+    unsafe fn load(p: *const f64) -> Self {
+        V8(_mm512_loadu_pd(p))
+    }
+    #[inline(always)]
+    unsafe fn store(self, p: *mut f64) {
+        _mm512_storeu_pd(p, self.0)
+    }
+    #[inline(always)]
+    unsafe fn load_part(s: &[f64]) -> Self {
+        V8(crate::lanes::load8(s))
+    }
+    #[inline(always)]
+    unsafe fn store_part(self, out: &mut [f64]) {
+        crate::lanes::store8(out, self.0)
+    }
+    #[inline(always)]
+    unsafe fn add(self, b: Self) -> Self {
+        V8(_mm512_add_pd(self.0, b.0))
+    }
+    #[inline(always)]
+    unsafe fn sub(self, b: Self) -> Self {
+        V8(_mm512_sub_pd(self.0, b.0))
+    }
+    #[inline(always)]
+    unsafe fn mul(self, b: Self) -> Self {
+        V8(_mm512_mul_pd(self.0, b.0))
+    }
+    #[inline(always)]
+    unsafe fn div(self, b: Self) -> Self {
+        V8(_mm512_div_pd(self.0, b.0))
+    }
+    #[inline(always)]
+    unsafe fn max(self, b: Self) -> Self {
+        V8(_mm512_max_pd(self.0, b.0))
+    }
+    #[inline(always)]
+    unsafe fn le(self, b: Self) -> __mmask8 {
+        _mm512_cmp_pd_mask::<_CMP_LE_OQ>(self.0, b.0)
+    }
+    #[inline(always)]
+    unsafe fn lt(self, b: Self) -> __mmask8 {
+        _mm512_cmp_pd_mask::<_CMP_LT_OQ>(self.0, b.0)
+    }
+    #[inline(always)]
+    unsafe fn select(self, m: __mmask8, b: Self) -> Self {
+        V8(_mm512_mask_blend_pd(m, self.0, b.0))
+    }
+    #[inline(always)]
+    unsafe fn keep(self, m: __mmask8) -> Self {
+        V8(_mm512_maskz_mov_pd(m, self.0))
+    }
+    #[inline(always)]
+    unsafe fn first(n: usize) -> __mmask8 {
+        crate::lanes::mask(n)
+    }
+    #[inline(always)]
+    unsafe fn lane(i: usize) -> __mmask8 {
+        (1u16 << i) as __mmask8
+    }
+    /// One `valignq`.
+    #[inline(always)]
+    unsafe fn next1(self, b: Self) -> Self {
+        let (a, b) = (_mm512_castpd_si512(self.0), _mm512_castpd_si512(b.0));
+        V8(_mm512_castsi512_pd(_mm512_alignr_epi64::<1>(b, a)))
+    }
+    /// One `valignq`.
+    #[inline(always)]
+    unsafe fn prev1(self, b: Self) -> Self {
+        let (a, b) = (_mm512_castpd_si512(self.0), _mm512_castpd_si512(b.0));
+        V8(_mm512_castsi512_pd(_mm512_alignr_epi64::<7>(b, a)))
+    }
+}
+
+/// The lanes `0..n` of four as an AVX2 mask (all ones in a lane that is set).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn mask4(n: usize) -> __m256i {
+    _mm256_cmpgt_epi64(_mm256_set1_epi64x(n as i64), _mm256_set_epi64x(3, 2, 1, 0))
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Vector for V4 {
+    const N: usize = 4;
+    const SHIFT_IS_ONE: bool = false;
+    type Mask = __m256d;
+
+    #[inline(always)]
+    unsafe fn splat(v: f64) -> Self {
+        V4(_mm256_set1_pd(v))
+    }
+    #[inline(always)]
+    unsafe fn zero() -> Self {
+        V4(_mm256_setzero_pd())
+    }
+    #[inline(always)]
+    unsafe fn load(p: *const f64) -> Self {
+        V4(_mm256_loadu_pd(p))
+    }
+    #[inline(always)]
+    unsafe fn store(self, p: *mut f64) {
+        _mm256_storeu_pd(p, self.0)
+    }
+    /// `vmaskmovpd`: masked-off lanes read as `0.0`, and are not accessed (no fault; Intel SDM,
+    /// VMASKMOV: "faults ... are suppressed" for masked-off elements).
+    #[inline(always)]
+    unsafe fn load_part(s: &[f64]) -> Self {
+        V4(_mm256_maskload_pd(s.as_ptr(), mask4(s.len().min(4))))
+    }
+    /// `vmaskmovpd`: masked-off lanes are not written (and do not fault).
+    #[inline(always)]
+    unsafe fn store_part(self, out: &mut [f64]) {
+        _mm256_maskstore_pd(out.as_mut_ptr(), mask4(out.len().min(4)), self.0)
+    }
+    #[inline(always)]
+    unsafe fn add(self, b: Self) -> Self {
+        V4(_mm256_add_pd(self.0, b.0))
+    }
+    #[inline(always)]
+    unsafe fn sub(self, b: Self) -> Self {
+        V4(_mm256_sub_pd(self.0, b.0))
+    }
+    #[inline(always)]
+    unsafe fn mul(self, b: Self) -> Self {
+        V4(_mm256_mul_pd(self.0, b.0))
+    }
+    #[inline(always)]
+    unsafe fn div(self, b: Self) -> Self {
+        V4(_mm256_div_pd(self.0, b.0))
+    }
+    #[inline(always)]
+    unsafe fn max(self, b: Self) -> Self {
+        V4(_mm256_max_pd(self.0, b.0))
+    }
+    #[inline(always)]
+    unsafe fn le(self, b: Self) -> __m256d {
+        _mm256_cmp_pd::<_CMP_LE_OQ>(self.0, b.0)
+    }
+    #[inline(always)]
+    unsafe fn lt(self, b: Self) -> __m256d {
+        _mm256_cmp_pd::<_CMP_LT_OQ>(self.0, b.0)
+    }
+    /// `vblendvpd`, by the sign bit of each lane of `m` (all ones or all zeros here).
+    #[inline(always)]
+    unsafe fn select(self, m: __m256d, b: Self) -> Self {
+        V4(_mm256_blendv_pd(self.0, b.0, m))
+    }
+    /// `vandpd`: the lane's bits, or all zeros (`+0.0`).
+    #[inline(always)]
+    unsafe fn keep(self, m: __m256d) -> Self {
+        V4(_mm256_and_pd(m, self.0))
+    }
+    #[inline(always)]
+    unsafe fn first(n: usize) -> __m256d {
+        _mm256_castsi256_pd(mask4(n))
+    }
+    #[inline(always)]
+    unsafe fn lane(i: usize) -> __m256d {
+        let i = _mm256_set1_epi64x(i as i64);
+        _mm256_castsi256_pd(_mm256_cmpeq_epi64(i, _mm256_set_epi64x(3, 2, 1, 0)))
+    }
+    /// `[a1 a2 a3 b0]`: the middle two lanes of `a` and `b` (`vperm2f128`), then `vshufpd`.
+    #[inline(always)]
+    unsafe fn next1(self, b: Self) -> Self {
+        let mid = _mm256_permute2f128_pd::<0x21>(self.0, b.0); // [a2 a3 b0 b1]
+        V4(_mm256_shuffle_pd::<0b0101>(self.0, mid))
+    }
+    /// `[a3 b0 b1 b2]`, as `next1`.
+    #[inline(always)]
+    unsafe fn prev1(self, b: Self) -> Self {
+        let mid = _mm256_permute2f128_pd::<0x21>(self.0, b.0); // [a2 a3 b0 b1]
+        V4(_mm256_shuffle_pd::<0b0101>(mid, b.0))
+    }
+}
+
+#[cfg(all(test, target_arch = "x86_64"))]
+mod tests {
+    use super::*;
+
+    /// Every operation of both widths against its scalar meaning, on values that tell the lanes
+    /// apart, partial loads and stores at every length, NaNs and zeros of both signs.
+    #[test]
+    fn both_widths_do_what_their_scalar_meaning_says() {
+        if std::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has AVX-512F, and `check` is compiled with it.
+            unsafe { check_avx512() };
+        }
+        if std::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, and `check` is compiled with it.
+            unsafe { check_avx2() };
+        }
+    }
+
+    #[target_feature(enable = "avx512f")]
+    unsafe fn check_avx512() {
+        check::<V8>();
+    }
+
+    #[target_feature(enable = "avx2")]
+    unsafe fn check_avx2() {
+        check::<V4>();
+    }
+
+    /// The lanes of `v`.
+    #[inline(always)]
+    unsafe fn lanes<V: Vector>(v: V) -> Vec<f64> {
+        let mut out = vec![0.0; V::N];
+        v.store(out.as_mut_ptr());
+        out
+    }
+
+    #[inline(always)]
+    unsafe fn check<V: Vector>() {
+        let n = V::N;
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<u64>>();
+        let a: Vec<f64> = (0..n).map(|i| 1.5 + i as f64).collect();
+        let b: Vec<f64> = (0..n).map(|i| -10.0 - i as f64).collect();
+        let (va, vb) = (V::load(a.as_ptr()), V::load(b.as_ptr()));
+        assert_eq!(lanes(va), a);
+        let each = |f: fn(f64, f64) -> f64| {
+            a.iter()
+                .zip(&b)
+                .map(|(&x, &y)| f(x, y))
+                .collect::<Vec<f64>>()
+        };
+        assert_eq!(lanes(va.add(vb)), each(|x, y| x + y));
+        assert_eq!(lanes(va.sub(vb)), each(|x, y| x - y));
+        assert_eq!(lanes(va.mul(vb)), each(|x, y| x * y));
+        assert_eq!(lanes(va.div(vb)), each(|x, y| x / y));
+        // shifts by a lane
+        let mut next = a[1..].to_vec();
+        next.push(b[0]);
+        assert_eq!(lanes(va.next1(vb)), next);
+        let mut prev = vec![a[n - 1]];
+        prev.extend_from_slice(&b[..n - 1]);
+        assert_eq!(lanes(va.prev1(vb)), prev);
+        // compares, selects, masks: NaN and zeros of both signs
+        let odd = [
+            0.0,
+            -0.0,
+            f64::NAN,
+            2.0,
+            -f64::NAN,
+            1.0,
+            f64::INFINITY,
+            -0.0,
+        ];
+        let x: Vec<f64> = odd[..n].to_vec();
+        let y: Vec<f64> = (0..n).map(|i| [-0.0, 0.0, 1.0, f64::NAN][i % 4]).collect();
+        let (vx, vy) = (V::load(x.as_ptr()), V::load(y.as_ptr()));
+        let max: Vec<f64> = (x.iter().zip(&y))
+            .map(|(&p, &q)| if p > q { p } else { q })
+            .collect();
+        assert_eq!(bits(&lanes(vx.max(vy))), bits(&max));
+        for (m, want) in [
+            (
+                vx.le(vy),
+                x.iter().zip(&y).map(|(p, q)| p <= q).collect::<Vec<_>>(),
+            ),
+            (vx.lt(vy), x.iter().zip(&y).map(|(p, q)| p < q).collect()),
+        ] {
+            let picked: Vec<f64> = (0..n).map(|i| if want[i] { b[i] } else { a[i] }).collect();
+            assert_eq!(lanes(va.select(m, vb)), picked);
+            let kept: Vec<f64> = (0..n).map(|i| if want[i] { a[i] } else { 0.0 }).collect();
+            assert_eq!(bits(&lanes(va.keep(m))), bits(&kept));
+        }
+        for i in 0..n {
+            let one: Vec<f64> = (0..n).map(|j| if j == i { b[j] } else { a[j] }).collect();
+            assert_eq!(lanes(va.select(V::lane(i), vb)), one);
+        }
+        for len in 0..=n {
+            let kept: Vec<f64> = (0..n).map(|j| if j < len { a[j] } else { 0.0 }).collect();
+            assert_eq!(bits(&lanes(va.keep(V::first(len)))), bits(&kept));
+        }
+        assert_eq!(bits(&lanes(V::zero())), bits(&vec![0.0; n]));
+        assert_eq!(lanes(V::splat(-3.25)), vec![-3.25; n]);
+        // partial loads and stores touch their slice alone, to the end of an allocation
+        for len in 0..=n + 2 {
+            let items: Box<[f64]> = (0..len).map(|i| i as f64 + 0.5).collect();
+            let v = V::load_part(&items);
+            let want: Vec<f64> = (0..n)
+                .map(|j| if j < len { j as f64 + 0.5 } else { 0.0 })
+                .collect();
+            assert_eq!(bits(&lanes(v)), bits(&want), "len {len}");
+            let mut buf = [-1.0; 20];
+            va.store_part(&mut buf[4..4 + len]);
+            for (i, &got) in buf.iter().enumerate() {
+                let want = if (4..4 + len.min(n)).contains(&i) {
+                    a[i - 4]
+                } else {
+                    -1.0
+                };
+                assert_eq!(got, want, "len {len}, item {i}");
+            }
+            let mut exact: Box<[f64]> = vec![0.0; len].into_boxed_slice();
+            va.store_part(&mut exact[..]);
+            assert!(exact.iter().zip(&a).all(|(&p, &q)| p == q));
+        }
+        let mut out = vec![0.0; n];
+        vb.store(out.as_mut_ptr());
+        assert_eq!(out, b);
+    }
+}
