@@ -5114,6 +5114,177 @@ mod tests {
     /// The grid step takes strings of REF, BUT and LNL links too, each cut into rows (`engine/grid.rs`
     /// `Sheet::string_at`), and gives the gather step's bits on one thread and on three: every
     /// output and, after each block, every link force.
+    /// With each vector width the CPU has, on one and three threads and in blocks of several
+    /// sizes, `net` (with two link forces and an input added) takes the grid step and gives the
+    /// gather step's bits: every output sample and link force.
+    fn grid_gives_the_gather_bits(name: &str, net: &mut Network) {
+        let last = LinkId(net.links.len() as u32 - 1);
+        net.add_force_output(last);
+        net.add_force_output(LinkId(1));
+        net.add_force(MatId(0), Signal::Impulse { at: 30, amp: -0.1 });
+        for simd in grid_widths() {
+            let mut grid = Engine::new_for(net, simd);
+            assert!(grid.k.grid.is_some(), "{name}, {simd:?}");
+            let mut gather = grid.clone();
+            gather.k.grid = None;
+            let mut threaded = grid.clone();
+            threaded.set_parallel_threshold(0);
+            threaded.set_threads(3);
+            let mut moved = false;
+            for block in [1, 97, 1024, 5] {
+                let mut a = vec![0.0; block * grid.channels()];
+                let (mut b, mut c) = (a.clone(), a.clone());
+                grid.process(block, &mut a).unwrap();
+                gather.process(block, &mut b).unwrap();
+                threaded.process(block, &mut c).unwrap();
+                let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+                assert!(bits(&a) == bits(&b), "{name}, {simd:?}, block {block}");
+                assert!(
+                    bits(&c) == bits(&b),
+                    "{name}, {simd:?}, block {block}, threads"
+                );
+                moved |= a.iter().any(|&v| v != 0.0);
+                for l in 0..net.links.len() {
+                    let l = LinkId(l as u32);
+                    assert_eq!(grid.link_force(l).to_bits(), gather.link_force(l).to_bits());
+                }
+            }
+            assert!(moved, "{name}: the outputs never moved");
+        }
+    }
+
+    /// Short strings one after the other in storage step as banks, one call each, of one law
+    /// kind (REF or BUT) each with its own parameters, inertia (or per-MAS inertias, alone) and
+    /// ends, fixes among them; LNL strings and long strings alone; and give the gather bits.
+    #[test]
+    fn banks_of_short_strings_give_the_gather_bits() {
+        if Simd::detect() == Simd::None {
+            return;
+        }
+        let own = |s: usize| Interaction::Ref {
+            k: 0.1 + s as f64 / 100.0,
+            z: 1e-4 * (1 + s % 3) as f64,
+        };
+        let but = |s: usize| Interaction::But {
+            k: 0.1 + s as f64 / 50.0,
+            z: 1e-4,
+            s: [0.0, 1e3, -1e-3][s % 3],
+        };
+        let lnl = |_| Interaction::Lnl {
+            lk: Curve::new(&[(-0.004, -4e-4), (0.0, 0.0), (0.004, 4e-4)]).unwrap(),
+            lz: Curve::new(&[(-1.0, -1e-4), (1.0, 1e-4)]).unwrap(),
+        };
+        // strings one after the other: (length, law, edit) each, appended in order
+        type Edit = fn(&mut Network);
+        let keep: Edit = |_| {};
+        let free_ends: Edit = |net| {
+            net.links.remove(0);
+            net.links.pop();
+        };
+        let turned: Edit = |net| {
+            let n = net.links.len();
+            for l in [0, n - 1] {
+                let link = &mut net.links[l];
+                (link.a, link.b) = (link.b, link.a);
+            }
+        };
+        let heavy: Edit = |net| {
+            for mat in &mut net.materials {
+                if let Material::Mas { m, .. } = mat {
+                    *m = 2.5;
+                }
+            }
+        };
+        let per_mas: Edit = |net| {
+            for (i, mat) in net.materials.iter_mut().enumerate() {
+                if let Material::Mas { m, .. } = mat {
+                    *m = [1.0, 1.3, 2.9][i % 3];
+                }
+            }
+        };
+        let input: Edit = |net| net.add_force(MatId(9), Signal::Constant(1e-4));
+        type Law = fn(usize) -> Interaction;
+        let strings = |parts: &[(usize, Law, Edit)]| {
+            let mut net = Network::new();
+            for (s, &(n, law, edit)) in parts.iter().enumerate() {
+                let mut one = bank(1, n, |_| law(s));
+                displace_grounds(&mut one);
+                edit(&mut one);
+                net.append(&one);
+            }
+            net
+        };
+        let (r, b, l): (Law, Law, Law) = (own, but, lnl);
+        // (name, network, sheets, units)
+        let mut nets: Vec<(&str, Network, usize, usize)> = vec![
+            ("12 x 40", bank(12, 40, own), 12, 1),
+            (
+                "lengths 16 to 57, free ends, grounds turned, inertias",
+                strings(&[
+                    (16, r, keep),
+                    (17, r, free_ends),
+                    (23, r, turned),
+                    (24, r, heavy),
+                    (31, r, keep),
+                    (40, r, free_ends),
+                    (57, r, heavy),
+                ]),
+                7,
+                1,
+            ),
+            (
+                "BUT of their own K and S",
+                strings(&[
+                    (20, b, keep),
+                    (33, b, free_ends),
+                    (18, b, keep),
+                    (45, b, heavy),
+                ]),
+                4,
+                1,
+            ),
+            (
+                "REF, BUT, LNL, per-MAS inertias, a long string, inputs",
+                strings(&[
+                    (20, r, keep),
+                    (21, r, input),
+                    (22, b, keep),
+                    (23, b, input),
+                    (24, l, keep),
+                    (25, l, keep),
+                    (26, r, keep),
+                    (27, r, per_mas),
+                    (28, r, per_mas),
+                    (29, r, keep),
+                    (1500, r, keep),
+                    (30, r, keep),
+                    (31, r, keep),
+                ]),
+                13,
+                9,
+            ),
+        ];
+        // a hammer (declared after the strings) on the third of eight
+        let mut struck = bank(8, 30, own);
+        let hammer = struck.add_material(Material::Mas {
+            m: 3.0,
+            x0: 0.5,
+            v0: -0.01,
+        });
+        let blow = Interaction::But {
+            k: 0.3,
+            z: 1e-3,
+            s: 0.0,
+        };
+        struck.add_link(blow, hammer, MatId(2 * 32 + 11));
+        nets.push(("8 x 30, struck", struck, 8, 1));
+        for (name, mut net, sheets, units) in nets {
+            let grid = Engine::new(&net).k.grid.expect(name);
+            assert_eq!((grid.sheets(), grid.units()), (sheets, units), "{name}");
+            grid_gives_the_gather_bits(name, &mut net);
+        }
+    }
+
     #[test]
     fn the_grid_step_takes_strings_and_gives_the_gather_bits() {
         let refs = |_| Interaction::Ref { k: 0.1, z: 1e-4 };
@@ -5271,39 +5442,7 @@ mod tests {
                 _ => 1,
             };
             assert_eq!(sheets(&net), expected, "{name}");
-            let last = LinkId(net.links.len() as u32 - 1);
-            net.add_force_output(last);
-            net.add_force_output(LinkId(1));
-            net.add_force(MatId(0), Signal::Impulse { at: 30, amp: -0.1 });
-            for simd in grid_widths() {
-                let mut grid = Engine::new_for(&net, simd);
-                assert!(grid.k.grid.is_some(), "{name}, {simd:?}");
-                let mut gather = grid.clone();
-                gather.k.grid = None;
-                let mut threaded = grid.clone();
-                threaded.set_parallel_threshold(0);
-                threaded.set_threads(3);
-                let mut moved = false;
-                for block in [1, 97, 1024, 5] {
-                    let mut a = vec![0.0; block * grid.channels()];
-                    let (mut b, mut c) = (a.clone(), a.clone());
-                    grid.process(block, &mut a).unwrap();
-                    gather.process(block, &mut b).unwrap();
-                    threaded.process(block, &mut c).unwrap();
-                    let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
-                    assert!(bits(&a) == bits(&b), "{name}, {simd:?}, block {block}");
-                    assert!(
-                        bits(&c) == bits(&b),
-                        "{name}, {simd:?}, block {block}, threads"
-                    );
-                    moved |= a.iter().any(|&v| v != 0.0);
-                    for l in 0..net.links.len() {
-                        let l = LinkId(l as u32);
-                        assert_eq!(grid.link_force(l).to_bits(), gather.link_force(l).to_bits());
-                    }
-                }
-                assert!(moved, "{name}: the outputs never moved");
-            }
+            grid_gives_the_gather_bits(&name, &mut net);
         }
         // not strings the grid step takes: an inner link declared from its right MAS to its
         // left, of another law, of another stiffness; a damper on each MAS (`air`)

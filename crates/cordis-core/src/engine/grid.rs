@@ -76,7 +76,10 @@
 //! is a [`StringLaw`] computing eight links with the gather step's operands and operations; an
 //! LNL string's curves are evaluated eight at a time by `curve.rs`'s `WideCurve` (whose doc
 //! shows they give `ExactCurve::eval`'s bits), in a piece compiled for its pair of point counts
-//! ([`ExactPair::visit`]).
+//! ([`ExactPair::visit`]). Short strings one after the other in storage, of REF links all or BUT
+//! links all, step in banks ([`Grid::units`]): one call loops over their pieces, so that a
+//! string of 30 MAS costs its 30 MAS and not a call chain as well (docs/BENCHMARKS.md,
+//! twenty-second session).
 
 use std::ops::Range;
 
@@ -239,29 +242,30 @@ impl<const A: usize, const B: usize> StringLaw for LnlLinks<A, B> {
     }
 }
 
-/// [`Sheet::piece`] of an LNL string, compiled for its curves' point counts.
-struct LnlPiece<'a> {
-    sheet: &'a Sheet,
-    r: usize,
+/// [`Sheet::strings`] of an LNL string, compiled for its curves' point counts.
+struct LnlStrings<'a> {
+    bank: &'a [Sheet],
+    rows: Range<usize>,
     x: &'a [f64],
     xp: &'a [f64],
     ms: &'a [f64],
     next: &'a mut [f64],
 }
 
-impl PairFn for LnlPiece<'_> {
+impl PairFn for LnlStrings<'_> {
     type Out = ();
 
     fn call<const A: usize, const B: usize>(self, k: ExactCurve<A>, z: ExactCurve<B>) {
-        let LnlPiece {
-            sheet,
-            r,
+        let LnlStrings {
+            bank,
+            rows,
             x,
             xp,
             ms,
             next,
         } = self;
-        sheet.piece_as(LnlLinks(k, z), r, x, xp, ms, next);
+        let law = move |_: &Sheet| LnlLinks(k, z);
+        Sheet::strings_as(bank, rows, law, x, xp, ms, next);
     }
 }
 
@@ -331,6 +335,10 @@ pub(super) struct Grid {
     /// The first row of each sheet in the grid's row count (its rows one after the other), and
     /// the total: sheet `i` has rows `row0[i]..row0[i + 1]`
     row0: Vec<usize>,
+    /// The sheets stepped by one call each, in order (see [`Part`]): a *bank* of strings of
+    /// one row each, one after the other in storage and of one law kind (REF or BUT), vector
+    /// width and inertia law ([`Sheet::banks_with`]), or any other sheet alone
+    units: Vec<Range<usize>>,
     /// The storage slots of the moving materials outside every sheet (before, between, after),
     /// ascending, none empty
     outside: Vec<Range<usize>>,
@@ -385,6 +393,14 @@ struct Sheet {
     terms: Vec<FixTerm>,
     /// The single-link runs of the fixes' link terms.
     fix_runs: Vec<Run>,
+}
+
+/// What one call steps ([`Grid::parts`]): rows `rows` of sheet `sheets.start` alone, or (a
+/// bank's) the one row of each string of `sheets`, `rows` then `0..1`.
+#[derive(Clone, Debug)]
+struct Part {
+    sheets: Range<usize>,
+    rows: Range<usize>,
 }
 
 /// A MAS of a sheet recomputed term by term: its storage slot and its terms, `Sheet::terms[terms]`.
@@ -578,11 +594,19 @@ impl Grid {
                 _ => outside_inputs.push(i..i + 1),
             }
         }
+        let mut units: Vec<Range<usize>> = Vec::new();
+        for (i, sheet) in sheets.iter().enumerate() {
+            match units.last_mut() {
+                Some(u) if sheets[u.end - 1].banks_with(sheet) => u.end = i + 1,
+                _ => units.push(i..i + 1),
+            }
+        }
         let g = Grid {
             outside_runs: k.runs_of(&wanted[..k.nl])?,
             outside_inputs,
             recorded: k.recorded_links()?,
             row0,
+            units,
             outside,
             sheets,
         };
@@ -600,6 +624,12 @@ impl Grid {
     #[cfg(test)]
     pub(super) fn sheets(&self) -> usize {
         self.sheets.len()
+    }
+
+    /// How many calls step the sheets: banks of strings and sheets alone ([`Grid::units`]).
+    #[cfg(test)]
+    pub(super) fn units(&self) -> usize {
+        self.units.len()
     }
 
     /// The scratch one thread needs: five row buffers of the widest membrane (velocities of two
@@ -635,13 +665,59 @@ impl Grid {
             .collect()
     }
 
-    /// Each sheet that has some of `rows` (in the grid's row count), with those rows in its own.
-    fn pieces(&self, rows: Range<usize>) -> impl Iterator<Item = (&Sheet, Range<usize>)> + '_ {
-        let spans = self.row0.windows(2);
-        self.sheets.iter().zip(spans).filter_map(move |(sheet, w)| {
-            let (lo, hi) = (rows.start.max(w[0]), rows.end.min(w[1]));
-            (lo < hi).then(|| (sheet, lo - w[0]..hi - w[0]))
+    /// The parts of `rows` (in the grid's row count), in order: each unit's ([`Grid::units`]),
+    /// of a bank the strings of `rows`, of a sheet alone its rows of `rows`.
+    fn parts(&self, rows: Range<usize>) -> impl Iterator<Item = Part> + '_ {
+        self.units.iter().filter_map(move |u| {
+            let (r0, r1) = (self.row0[u.start], self.row0[u.end]);
+            let (lo, hi) = (rows.start.max(r0), rows.end.min(r1));
+            (lo < hi).then(|| match u.len() {
+                1 => Part {
+                    sheets: u.clone(),
+                    rows: lo - r0..hi - r0,
+                },
+                // (a bank's strings have one row each: string `i` is row `r0 + i - u.start`)
+                _ => Part {
+                    sheets: u.start + (lo - r0)..u.start + (hi - r0),
+                    rows: 0..1,
+                },
+            })
         })
+    }
+
+    /// The storage slots of the MAS of `part`: its sheets' rows, one after the other.
+    fn part_slots(&self, part: &Part) -> Range<usize> {
+        let sheets = &self.sheets[part.sheets.clone()];
+        sheets[0].slots(&part.rows).start..sheets[sheets.len() - 1].slots(&part.rows).end
+    }
+
+    /// Step `n` of `part`: `x(n+1)` of its MAS into `next` (exactly [`Grid::part_slots`]), as
+    /// [`Sheet::step`] steps each of its sheets.
+    #[allow(clippy::too_many_arguments)] // the step's buffers
+    #[inline]
+    fn step_part(
+        &self,
+        k: &Kernel,
+        n: u64,
+        part: Part,
+        cur: &[f64],
+        prev: &[f64],
+        next: &mut [f64],
+        scratch: &mut [f64],
+    ) {
+        let bank = &self.sheets[part.sheets];
+        if let [sheet] = bank {
+            return sheet.step(k, n, part.rows, cur, prev, next, scratch);
+        }
+        let ms = bank[0].inertias(k);
+        assert!(cur.len() == k.nm && prev.len() == k.nm);
+        Sheet::strings_for_cpu(bank, 0..1, cur, prev, ms, next);
+        let lo = bank[0].base;
+        for sheet in bank.iter().filter(|s| !s.fixes.is_empty()) {
+            let mine = sheet.slots(&(0..1));
+            let next = &mut next[mine.start - lo..mine.end - lo];
+            sheet.fixes(k, n, 0..1, cur, prev, next, ms);
+        }
     }
 
     /// Steps `frames` times from `st` on the calling thread, writing the outputs into `out` (see
@@ -658,10 +734,20 @@ impl Grid {
                 let next = &mut next[mats.clone()];
                 Grid::outside_mats(k, st.n, mats.clone(), (cur, prev), next, &st.sf);
             }
-            for sheet in &self.sheets {
-                let all = 0..sheet.rows;
-                let next = &mut next[sheet.slots(&all)];
-                sheet.step(k, st.n, all, cur, prev, next, &mut st.grid);
+            for u in &self.units {
+                let bank = &self.sheets[u.clone()];
+                if let [sheet] = bank {
+                    let all = 0..sheet.rows;
+                    let next = &mut next[sheet.slots(&all)];
+                    sheet.step(k, st.n, all, cur, prev, next, &mut st.grid);
+                } else {
+                    let part = Part {
+                        sheets: u.clone(),
+                        rows: 0..1,
+                    };
+                    let next = &mut next[self.part_slots(&part)];
+                    self.step_part(k, st.n, part, cur, prev, next, &mut st.grid);
+                }
             }
             st.n += 1;
             st.c = roles.next;
@@ -670,6 +756,7 @@ impl Grid {
 
     /// Step `n`'s ENF inputs of `outside_inputs` and forces of the links of `outside_runs` into
     /// `sf`, for the materials outside the sheets (nothing when there are none).
+    #[inline]
     pub(super) fn outside_links(
         &self,
         k: &Kernel,
@@ -1020,13 +1107,18 @@ impl Sheet {
             self.membrane_rows(k, rows.clone(), cur, prev, next, scratch);
         } else {
             assert!(cur.len() == k.nm && prev.len() == k.nm && rows.end <= self.rows);
-            let lo = self.start(rows.start);
-            for r in rows.clone() {
-                let piece = self.start(r) - lo..self.start(r + 1) - lo;
-                self.piece_for_cpu(r, cur, prev, ms, &mut next[piece]);
-            }
+            Self::strings_for_cpu(
+                std::slice::from_ref(self),
+                rows.clone(),
+                cur,
+                prev,
+                ms,
+                next,
+            );
         }
-        self.fixes(k, n, rows, cur, prev, next, ms);
+        if !self.fixes.is_empty() {
+            self.fixes(k, n, rows, cur, prev, next, ms);
+        }
     }
 
     /// [`Sheet::step`]'s rows of a membrane.
@@ -1179,11 +1271,11 @@ impl Sheet {
             macro_rules! row {
                 ($div:literal, $up_last:literal, $per:literal) => {
                     match self.simd {
-                        // SAFETY: as in `piece_as`.
+                        // SAFETY: as in `strings_as`.
                         Simd::Avx512(_) => unsafe {
                             self.row_avx512::<$div, $up_last, $per>(r, args)
                         },
-                        // SAFETY: as in `piece_as`.
+                        // SAFETY: as in `strings_as`.
                         Simd::Avx2 => unsafe { self.row_avx2::<$div, $up_last, $per>(r, args) },
                         Simd::None => {
                             unreachable!("a sheet is made only with vectors (`Grid::new`)")
@@ -1237,28 +1329,71 @@ impl Sheet {
         self.row::<V4, DIV, UP_LAST, PER_MAS>(r, a)
     }
 
-    fn piece_for_cpu(&self, r: usize, x: &[f64], xp: &[f64], ms: &[f64], next: &mut [f64]) {
-        let (k, z) = (self.k, self.z);
-        match self.strand {
-            Strand::Ref => self.piece_as(RefLinks(k, z), r, x, xp, ms, next),
-            Strand::But { s } => self.piece_as(ButLinks(k, z, s), r, x, xp, ms, next),
-            Strand::Lnl(pair) => pair.visit(LnlPiece {
-                sheet: self,
-                r,
-                x,
-                xp,
-                ms,
-                next,
-            }),
+    /// Whether `next`, the sheet after this one, steps in one call with it ([`Grid::units`]):
+    /// both strings of one row (`PIECE` MAS at most), `next` right after this one in storage,
+    /// of REF links both or BUT links both (each its own `K`, `Z`, `S`; not LNL, whose pieces
+    /// are compiled for their curves' point counts), with the same vector width and inertia
+    /// law.
+    fn banks_with(&self, next: &Sheet) -> bool {
+        let string = |s: &Sheet| !s.starts.is_empty() && s.rows == 1;
+        string(self)
+            && string(next)
+            && next.base == self.slots(&(0..1)).end
+            && matches!(
+                (self.strand, next.strand),
+                (Strand::Ref, Strand::Ref) | (Strand::But { .. }, Strand::But { .. })
+            )
+            && (self.simd, self.div, self.per_mas) == (next.simd, next.div, next.per_mas)
+    }
+
+    /// [`Sheet::strings`] of `bank`, strings one after the other in storage and of one law kind
+    /// (a sheet alone, or [`Sheet::banks_with`] each the next), rows `rows` of each, compiled
+    /// for their law, the CPU's vector width and the inertia law; `next` holds exactly their
+    /// slots.
+    #[inline]
+    fn strings_for_cpu(
+        bank: &[Sheet],
+        rows: Range<usize>,
+        x: &[f64],
+        xp: &[f64],
+        ms: &[f64],
+        next: &mut [f64],
+    ) {
+        match bank[0].strand {
+            Strand::Ref => {
+                let law = |s: &Sheet| RefLinks(s.k, s.z);
+                Self::strings_as(bank, rows, law, x, xp, ms, next)
+            }
+            Strand::But { .. } => {
+                let law = |s: &Sheet| match s.strand {
+                    Strand::But { s: th } => ButLinks(s.k, s.z, th),
+                    _ => unreachable!("a bank's strings are of one law kind (`banks_with`)"),
+                };
+                Self::strings_as(bank, rows, law, x, xp, ms, next)
+            }
+            Strand::Lnl(pair) => {
+                assert!(
+                    bank.len() == 1,
+                    "an LNL string is stepped alone (`banks_with`)"
+                );
+                pair.visit(LnlStrings {
+                    bank,
+                    rows,
+                    x,
+                    xp,
+                    ms,
+                    next,
+                })
+            }
         }
     }
 
-    /// [`Sheet::piece`] of links of `law`, compiled for the CPU's vector width and each
-    /// inertia law.
-    fn piece_as<L: StringLaw>(
-        &self,
-        law: L,
-        r: usize,
+    /// [`Sheet::strings`] of links of the law `law` gives each string, compiled for the CPU's
+    /// vector width and each inertia law.
+    fn strings_as<L: StringLaw, F: Fn(&Sheet) -> L>(
+        bank: &[Sheet],
+        rows: Range<usize>,
+        law: F,
         x: &[f64],
         xp: &[f64],
         ms: &[f64],
@@ -1266,19 +1401,22 @@ impl Sheet {
     ) {
         #[cfg(target_arch = "x86_64")]
         {
-            self.debug_check_simd();
-            macro_rules! piece {
+            let s0 = &bank[0];
+            s0.debug_check_simd();
+            macro_rules! strings {
                 ($div:literal, $per:literal) => {
-                    match self.simd {
+                    match s0.simd {
                         // SAFETY: `Simd::Avx512` holds the proof that the CPU has AVX-512F
-                        // (`Avx512::detect`).
+                        // (`Avx512::detect`), and a bank's sheets have one width.
                         Simd::Avx512(_) => unsafe {
-                            self.piece_avx512::<$div, $per, L>(law, r, x, xp, ms, next)
+                            Self::strings_avx512::<$div, $per, L, F>(
+                                bank, rows, law, x, xp, ms, next,
+                            )
                         },
                         // SAFETY: `Simd::detect` returns `Avx2` only when the CPU has AVX2 (and
                         // an engine does not move to another machine).
                         Simd::Avx2 => unsafe {
-                            self.piece_avx2::<$div, $per, L>(law, r, x, xp, ms, next)
+                            Self::strings_avx2::<$div, $per, L, F>(bank, rows, law, x, xp, ms, next)
                         },
                         Simd::None => {
                             unreachable!("a sheet is made only with vectors (`Grid::new`)")
@@ -1286,54 +1424,92 @@ impl Sheet {
                     }
                 };
             }
-            match (self.div, self.per_mas) {
-                (true, false) => piece!(true, false),
-                (false, false) => piece!(false, false),
-                (true, true) => piece!(true, true),
-                (false, true) => piece!(false, true),
+            match (s0.div, s0.per_mas) {
+                (true, false) => strings!(true, false),
+                (false, false) => strings!(false, false),
+                (true, true) => strings!(true, true),
+                (false, true) => strings!(false, true),
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
-            let _ = (law, r, x, xp, ms, next);
+            let _ = (bank, rows, law, x, xp, ms, next);
             unreachable!("a grid step needs AVX-512 or AVX2, which exist only on x86-64");
         }
     }
 
-    /// [`Sheet::piece`] eight MAS at a time.
+    /// [`Sheet::strings`] eight MAS at a time.
     ///
     /// # Safety
     /// The CPU must have AVX-512F.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    unsafe fn piece_avx512<const DIV: bool, const PER_MAS: bool, L: StringLaw>(
-        &self,
-        law: L,
-        r: usize,
+    unsafe fn strings_avx512<const DIV: bool, const PER_MAS: bool, L, F>(
+        bank: &[Sheet],
+        rows: Range<usize>,
+        law: F,
         x: &[f64],
         xp: &[f64],
         ms: &[f64],
         next: &mut [f64],
-    ) {
-        self.piece::<V8, DIV, PER_MAS, L>(law, r, x, xp, ms, next)
+    ) where
+        L: StringLaw,
+        F: Fn(&Sheet) -> L,
+    {
+        Self::strings::<V8, DIV, PER_MAS, L, F>(bank, rows, law, x, xp, ms, next)
     }
 
-    /// [`Sheet::piece`] four MAS at a time.
+    /// [`Sheet::strings`] four MAS at a time.
     ///
     /// # Safety
     /// The CPU must have AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn piece_avx2<const DIV: bool, const PER_MAS: bool, L: StringLaw>(
-        &self,
-        law: L,
-        r: usize,
+    unsafe fn strings_avx2<const DIV: bool, const PER_MAS: bool, L, F>(
+        bank: &[Sheet],
+        rows: Range<usize>,
+        law: F,
         x: &[f64],
         xp: &[f64],
         ms: &[f64],
         next: &mut [f64],
-    ) {
-        self.piece::<V4, DIV, PER_MAS, L>(law, r, x, xp, ms, next)
+    ) where
+        L: StringLaw,
+        F: Fn(&Sheet) -> L,
+    {
+        Self::strings::<V4, DIV, PER_MAS, L, F>(bank, rows, law, x, xp, ms, next)
+    }
+
+    /// Rows `rows` of each string of `bank` (one after the other in storage), string by string
+    /// and row by row ([`Sheet::piece`]), each with its links of law `law(string)`: `x(n+1)`
+    /// into `next`, which holds exactly their slots, from the state `x`, `xp`. One call steps a
+    /// whole bank of short strings, so that each string costs its piece and no call.
+    ///
+    /// # Safety
+    /// The CPU must have `V`'s instructions, and the caller be compiled with them.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn strings<V: Vector, const DIV: bool, const PER_MAS: bool, L, F>(
+        bank: &[Sheet],
+        rows: Range<usize>,
+        law: F,
+        x: &[f64],
+        xp: &[f64],
+        ms: &[f64],
+        next: &mut [f64],
+    ) where
+        L: StringLaw,
+        F: Fn(&Sheet) -> L,
+    {
+        let lo = bank[0].slots(&rows).start;
+        for sheet in bank {
+            let law = law(sheet);
+            for r in rows.clone() {
+                let mine = sheet.slots(&(r..r + 1));
+                let next = &mut next[mine.start - lo..mine.end - lo];
+                sheet.piece::<V, DIV, PER_MAS, L>(law, r, x, xp, ms, next);
+            }
+        }
     }
 
     /// Row `r` of a string (a piece of it): `x(n+1)` into `next`, from the state `x`, `xp`. Each
@@ -1692,9 +1868,9 @@ impl GridJob<'_> {
                 let scratch = self.scratch.write(t * len..(t + 1) * len);
                 let chunks = |q: usize| self.shares[q].len();
                 for (q, j) in Claim::claimed(&self.claims[..threads], t, s, chunks) {
-                    for (sheet, rows) in grid.pieces(self.shares[q][j].clone()) {
-                        let next = self.pos[r.next].write(sheet.slots(&rows));
-                        sheet.step(k, n, rows, state.0, state.1, next, scratch);
+                    for part in grid.parts(self.shares[q][j].clone()) {
+                        let next = self.pos[r.next].write(grid.part_slots(&part));
+                        grid.step_part(k, n, part, state.0, state.1, next, scratch);
                     }
                 }
             }
