@@ -5154,8 +5154,9 @@ mod tests {
     }
 
     /// Short strings one after the other in storage step as banks, one call each, of one law
-    /// kind (REF or BUT) each with its own parameters, inertia (or per-MAS inertias, alone) and
-    /// ends, fixes among them; LNL strings and long strings alone; and give the gather bits.
+    /// kind (REF or BUT) each with its own parameters and ends, of unit inertia, of other
+    /// inertias (each its own) or of per-MAS inertias, fixes among them; LNL strings and long
+    /// strings alone; and give the gather bits.
     #[test]
     fn banks_of_short_strings_give_the_gather_bits() {
         if Simd::detect() == Simd::None {
@@ -5230,7 +5231,7 @@ mod tests {
                     (57, r, heavy),
                 ]),
                 7,
-                1,
+                4,
             ),
             (
                 "BUT of their own K and S",
@@ -5241,7 +5242,7 @@ mod tests {
                     (45, b, heavy),
                 ]),
                 4,
-                1,
+                2,
             ),
             (
                 "REF, BUT, LNL, per-MAS inertias, a long string, inputs",

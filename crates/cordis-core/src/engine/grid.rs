@@ -269,14 +269,23 @@ impl PairFn for LnlStrings<'_> {
     }
 }
 
+/// How the vector loops apply the inertia ([`Sheet::mass`]): multiply by `1 / M`, divide by
+/// `M`, or (every MAS's `1 / M` or `M` exactly `1`) neither.
+const INV: u8 = 0;
+const DIVIDE: u8 = 1;
+const UNIT: u8 = 2;
+
 /// `x(n+1) = 2 x - x' + F / M` (or `F (1 / M)`) of `V::N` MAS, as `by_div` (`by_inv`): `m`
-/// every MAS's `M` (`DIV`) or `1 / M`, or (`PER_MAS`) theirs, `mr[c0..c0 + V::N]`.
+/// every MAS's `M` (`MASS` [`DIVIDE`]) or `1 / M` ([`INV`]), or (`PER_MAS`) theirs, `mr[c0..c0 +
+/// V::N]`. With [`UNIT`] (`m` is `1`) `F` is added as it is: `F 1 = F / 1 = F`, bit for bit, for
+/// every `F` but a signalling NaN, which no arithmetic yields (a NaN `F` is quiet, and IEEE
+/// multiplication and division by `1` return a quiet NaN operand as it is on x86-64).
 ///
 /// # Safety
 /// The CPU must have `V`'s instructions; with `PER_MAS`, `c0 + V::N <= mr.len()`.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn update<V: Vector, const DIV: bool, const PER_MAS: bool>(
+unsafe fn update<V: Vector, const MASS: u8, const PER_MAS: bool>(
     x: V,
     xp: V,
     f: V,
@@ -289,7 +298,11 @@ unsafe fn update<V: Vector, const DIV: bool, const PER_MAS: bool>(
     } else {
         m
     };
-    let by = if DIV { f.div(m) } else { f.mul(m) };
+    let by = match MASS {
+        DIVIDE => f.div(m),
+        UNIT => f,
+        _ => f.mul(m),
+    };
     x.add(x).sub(xp).add(by)
 }
 
@@ -734,6 +747,8 @@ impl Grid {
                 let next = &mut next[mats.clone()];
                 Grid::outside_mats(k, st.n, mats.clone(), (cur, prev), next, &st.sf);
             }
+            // (a sheet alone is stepped directly: through `step_part` and `part_slots`, a string
+            // of 1,000 MAS cost 0.5 % more instructions)
             for u in &self.units {
                 let bank = &self.sheets[u.clone()];
                 if let [sheet] = bank {
@@ -1225,9 +1240,9 @@ impl Sheet {
             let (x, xp) = (cur[s], prev[s]);
             let m = ms.get(s).copied().unwrap_or(self.m);
             next[s - slots.start] = if self.div {
-                Self::update_as::<true>(x, xp, f, m)
+                Self::update_as::<DIVIDE>(x, xp, f, m)
             } else {
-                Self::update_as::<false>(x, xp, f, m)
+                Self::update_as::<INV>(x, xp, f, m)
             };
         }
     }
@@ -1241,10 +1256,11 @@ impl Sheet {
         }
     }
 
-    /// `x(n+1)` of a MAS: divided by `m` (`DIV`) or multiplied by it, as `Grid::m` says.
+    /// `x(n+1)` of a MAS: divided by `m` (`MASS` [`DIVIDE`]) or multiplied by it (with [`UNIT`],
+    /// `m` is `1`), as `Grid::m` says.
     #[inline(always)]
-    fn update_as<const DIV: bool>(x: f64, xp: f64, f: f64, m: f64) -> f64 {
-        if DIV {
+    fn update_as<const MASS: u8>(x: f64, xp: f64, f: f64, m: f64) -> f64 {
+        if MASS == DIVIDE {
             by_div(x, xp, f, m)
         } else {
             by_inv(x, xp, f, m)
@@ -1269,29 +1285,31 @@ impl Sheet {
         {
             self.debug_check_simd();
             macro_rules! row {
-                ($div:literal, $up_last:literal, $per:literal) => {
+                ($mass:ident, $up_last:literal, $per:literal) => {
                     match self.simd {
                         // SAFETY: as in `strings_as`.
                         Simd::Avx512(_) => unsafe {
-                            self.row_avx512::<$div, $up_last, $per>(r, args)
+                            self.row_avx512::<$mass, $up_last, $per>(r, args)
                         },
                         // SAFETY: as in `strings_as`.
-                        Simd::Avx2 => unsafe { self.row_avx2::<$div, $up_last, $per>(r, args) },
+                        Simd::Avx2 => unsafe { self.row_avx2::<$mass, $up_last, $per>(r, args) },
                         Simd::None => {
                             unreachable!("a sheet is made only with vectors (`Grid::new`)")
                         }
                     }
                 };
             }
-            match (self.div, self.mid[r] == Order::UP_LAST, self.per_mas) {
-                (true, true, false) => row!(true, true, false),
-                (true, false, false) => row!(true, false, false),
-                (false, true, false) => row!(false, true, false),
-                (false, false, false) => row!(false, false, false),
-                (true, true, true) => row!(true, true, true),
-                (true, false, true) => row!(true, false, true),
-                (false, true, true) => row!(false, true, true),
-                (false, false, true) => row!(false, false, true),
+            match (self.mass(), self.mid[r] == Order::UP_LAST, self.per_mas) {
+                (UNIT, true, _) => row!(UNIT, true, false),
+                (UNIT, false, _) => row!(UNIT, false, false),
+                (DIVIDE, true, false) => row!(DIVIDE, true, false),
+                (DIVIDE, false, false) => row!(DIVIDE, false, false),
+                (_, true, false) => row!(INV, true, false),
+                (_, false, false) => row!(INV, false, false),
+                (DIVIDE, true, true) => row!(DIVIDE, true, true),
+                (DIVIDE, false, true) => row!(DIVIDE, false, true),
+                (_, true, true) => row!(INV, true, true),
+                (_, false, true) => row!(INV, false, true),
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
@@ -1307,12 +1325,12 @@ impl Sheet {
     /// The CPU must have AVX-512F.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    unsafe fn row_avx512<const DIV: bool, const UP_LAST: bool, const PER_MAS: bool>(
+    unsafe fn row_avx512<const MASS: u8, const UP_LAST: bool, const PER_MAS: bool>(
         &self,
         r: usize,
         a: RowArgs<'_>,
     ) {
-        self.row::<V8, DIV, UP_LAST, PER_MAS>(r, a)
+        self.row::<V8, MASS, UP_LAST, PER_MAS>(r, a)
     }
 
     /// [`Sheet::row`] four MAS at a time.
@@ -1321,19 +1339,19 @@ impl Sheet {
     /// The CPU must have AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn row_avx2<const DIV: bool, const UP_LAST: bool, const PER_MAS: bool>(
+    unsafe fn row_avx2<const MASS: u8, const UP_LAST: bool, const PER_MAS: bool>(
         &self,
         r: usize,
         a: RowArgs<'_>,
     ) {
-        self.row::<V4, DIV, UP_LAST, PER_MAS>(r, a)
+        self.row::<V4, MASS, UP_LAST, PER_MAS>(r, a)
     }
 
     /// Whether `next`, the sheet after this one, steps in one call with it ([`Grid::units`]):
     /// both strings of one row (`PIECE` MAS at most), `next` right after this one in storage,
     /// of REF links both or BUT links both (each its own `K`, `Z`, `S`; not LNL, whose pieces
     /// are compiled for their curves' point counts), with the same vector width and inertia
-    /// law.
+    /// law ([`Sheet::mass`], `Sheet::per_mas`).
     fn banks_with(&self, next: &Sheet) -> bool {
         let string = |s: &Sheet| !s.starts.is_empty() && s.rows == 1;
         string(self)
@@ -1343,7 +1361,18 @@ impl Sheet {
                 (self.strand, next.strand),
                 (Strand::Ref, Strand::Ref) | (Strand::But { .. }, Strand::But { .. })
             )
-            && (self.simd, self.div, self.per_mas) == (next.simd, next.div, next.per_mas)
+            && (self.simd, self.mass(), self.per_mas) == (next.simd, next.mass(), next.per_mas)
+    }
+
+    /// How the vector loops apply the inertia: [`UNIT`] where every MAS's `1 / M` or `M` is
+    /// exactly `1` (unit masses, the usual case: no multiplication, see [`update`]), else
+    /// [`DIVIDE`] or [`INV`] as `Sheet::div` says.
+    fn mass(&self) -> u8 {
+        match (self.per_mas, self.div) {
+            (false, _) if self.m == 1.0 => UNIT,
+            (_, true) => DIVIDE,
+            (_, false) => INV,
+        }
     }
 
     /// [`Sheet::strings`] of `bank`, strings one after the other in storage and of one law kind
@@ -1404,19 +1433,21 @@ impl Sheet {
             let s0 = &bank[0];
             s0.debug_check_simd();
             macro_rules! strings {
-                ($div:literal, $per:literal) => {
+                ($mass:ident, $per:literal) => {
                     match s0.simd {
                         // SAFETY: `Simd::Avx512` holds the proof that the CPU has AVX-512F
                         // (`Avx512::detect`), and a bank's sheets have one width.
                         Simd::Avx512(_) => unsafe {
-                            Self::strings_avx512::<$div, $per, L, F>(
+                            Self::strings_avx512::<$mass, $per, L, F>(
                                 bank, rows, law, x, xp, ms, next,
                             )
                         },
                         // SAFETY: `Simd::detect` returns `Avx2` only when the CPU has AVX2 (and
                         // an engine does not move to another machine).
                         Simd::Avx2 => unsafe {
-                            Self::strings_avx2::<$div, $per, L, F>(bank, rows, law, x, xp, ms, next)
+                            Self::strings_avx2::<$mass, $per, L, F>(
+                                bank, rows, law, x, xp, ms, next,
+                            )
                         },
                         Simd::None => {
                             unreachable!("a sheet is made only with vectors (`Grid::new`)")
@@ -1424,11 +1455,12 @@ impl Sheet {
                     }
                 };
             }
-            match (s0.div, s0.per_mas) {
-                (true, false) => strings!(true, false),
-                (false, false) => strings!(false, false),
-                (true, true) => strings!(true, true),
-                (false, true) => strings!(false, true),
+            match (s0.mass(), s0.per_mas) {
+                (UNIT, _) => strings!(UNIT, false),
+                (DIVIDE, false) => strings!(DIVIDE, false),
+                (_, false) => strings!(INV, false),
+                (DIVIDE, true) => strings!(DIVIDE, true),
+                (_, true) => strings!(INV, true),
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
@@ -1444,7 +1476,7 @@ impl Sheet {
     /// The CPU must have AVX-512F.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    unsafe fn strings_avx512<const DIV: bool, const PER_MAS: bool, L, F>(
+    unsafe fn strings_avx512<const MASS: u8, const PER_MAS: bool, L, F>(
         bank: &[Sheet],
         rows: Range<usize>,
         law: F,
@@ -1456,7 +1488,7 @@ impl Sheet {
         L: StringLaw,
         F: Fn(&Sheet) -> L,
     {
-        Self::strings::<V8, DIV, PER_MAS, L, F>(bank, rows, law, x, xp, ms, next)
+        Self::strings::<V8, MASS, PER_MAS, L, F>(bank, rows, law, x, xp, ms, next)
     }
 
     /// [`Sheet::strings`] four MAS at a time.
@@ -1465,7 +1497,7 @@ impl Sheet {
     /// The CPU must have AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn strings_avx2<const DIV: bool, const PER_MAS: bool, L, F>(
+    unsafe fn strings_avx2<const MASS: u8, const PER_MAS: bool, L, F>(
         bank: &[Sheet],
         rows: Range<usize>,
         law: F,
@@ -1477,7 +1509,7 @@ impl Sheet {
         L: StringLaw,
         F: Fn(&Sheet) -> L,
     {
-        Self::strings::<V4, DIV, PER_MAS, L, F>(bank, rows, law, x, xp, ms, next)
+        Self::strings::<V4, MASS, PER_MAS, L, F>(bank, rows, law, x, xp, ms, next)
     }
 
     /// Rows `rows` of each string of `bank` (one after the other in storage), string by string
@@ -1489,7 +1521,7 @@ impl Sheet {
     /// The CPU must have `V`'s instructions, and the caller be compiled with them.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn strings<V: Vector, const DIV: bool, const PER_MAS: bool, L, F>(
+    unsafe fn strings<V: Vector, const MASS: u8, const PER_MAS: bool, L, F>(
         bank: &[Sheet],
         rows: Range<usize>,
         law: F,
@@ -1507,7 +1539,7 @@ impl Sheet {
             for r in rows.clone() {
                 let mine = sheet.slots(&(r..r + 1));
                 let next = &mut next[mine.start - lo..mine.end - lo];
-                sheet.piece::<V, DIV, PER_MAS, L>(law, r, x, xp, ms, next);
+                sheet.piece::<V, MASS, PER_MAS, L>(law, r, x, xp, ms, next);
             }
         }
     }
@@ -1528,7 +1560,7 @@ impl Sheet {
     /// The CPU must have `V`'s instructions, and the caller be compiled with them.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn piece<V: Vector, const DIV: bool, const PER_MAS: bool, L: StringLaw>(
+    unsafe fn piece<V: Vector, const MASS: u8, const PER_MAS: bool, L: StringLaw>(
         &self,
         law: L,
         r: usize,
@@ -1605,7 +1637,7 @@ impl Sheet {
                 let h = L::force_n(&wide, xa, va, xb, vb);
                 let left = hprev.prev1(h);
                 let f = zero.add(left).sub(h);
-                update::<V, DIV, PER_MAS>(xa, pa, f, m, mr, c0).store(next.as_mut_ptr().add(c0));
+                update::<V, MASS, PER_MAS>(xa, pa, f, m, mr, c0).store(next.as_mut_ptr().add(c0));
                 hprev = h;
                 c0 += n;
             };
@@ -1637,7 +1669,7 @@ impl Sheet {
         } else {
             m
         };
-        update::<V, DIV, false>(xa, pa, f, m, mr, full).store_part(&mut next[full..]);
+        update::<V, MASS, false>(xa, pa, f, m, mr, full).store_part(&mut next[full..]);
     }
 
     /// Row `r`: `x(n+1)` into `next`, from the state `x`, `xp`, the row below (`x(n)`, `x(n-1)`,
@@ -1650,7 +1682,7 @@ impl Sheet {
     /// The CPU must have `V`'s instructions, and the caller be compiled with them.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn row<V: Vector, const DIV: bool, const UP_LAST: bool, const PER_MAS: bool>(
+    unsafe fn row<V: Vector, const MASS: u8, const UP_LAST: bool, const PER_MAS: bool>(
         &self,
         r: usize,
         a: RowArgs<'_>,
@@ -1733,9 +1765,9 @@ impl Sheet {
                 let p = load!(pr, $tail);
                 if $tail {
                     let m = if PER_MAS { V::load_part(&mr[c0..]) } else { m };
-                    update::<V, DIV, false>(xa, p, f, m, mr, c0).store_part(&mut next[c0..]);
+                    update::<V, MASS, false>(xa, p, f, m, mr, c0).store_part(&mut next[c0..]);
                 } else {
-                    let out = update::<V, DIV, PER_MAS>(xa, p, f, m, mr, c0);
+                    let out = update::<V, MASS, PER_MAS>(xa, p, f, m, mr, c0);
                     out.store(next.as_mut_ptr().add(c0));
                 }
                 h
@@ -1779,14 +1811,14 @@ impl Sheet {
             let (x0, v0) = (xr[0], vc[0]);
             let h = link(x0, v0, xr[1], vc[1]);
             let f = self.first[r].sum([h0, -h, u0, -up[0]]);
-            next[0] = Self::update_as::<DIV>(x0, pr[0], f, m_at(0));
+            next[0] = Self::update_as::<MASS>(x0, pr[0], f, m_at(0));
         }
         if self.last[r] != mid {
             let c = cols - 1;
             let (x0, v0) = (xr[c], vc[c]);
             let hl = link(xr[c - 1], vc[c - 1], x0, v0);
             let f = self.last[r].sum([hl, -link(x0, v0, xg, vg), u_last, -up[c]]);
-            next[c] = Self::update_as::<DIV>(x0, pr[c], f, m_at(c));
+            next[c] = Self::update_as::<MASS>(x0, pr[c], f, m_at(c));
         }
     }
 }
