@@ -172,6 +172,15 @@ impl<const N: usize> ExactCurve<N> {
                 && self.ys[0].to_bits() != (-0.0f64).to_bits())
     }
 
+    /// Whether [`ExactCurve::eval`] (and [`WideCurve::eval`] where the curve widens) never gives
+    /// `-0.0`: the zero curve gives `+0.0`, and a curve of no `-0.0` value gives one of its values
+    /// or `y[i] + p` for a value `y[i]` and some `p`, which is `-0.0` only when both are (a sum of
+    /// two numbers of opposite signs and the same size is `+0.0`). The grid step's LNL strings
+    /// rely on it (a link force that is never `-0.0` needs no `0 +` in `F(n)`).
+    pub(crate) fn never_minus_zero(&self) -> bool {
+        self.ys.iter().all(|y| y.to_bits() != (-0.0f64).to_bits())
+    }
+
     /// The curve with each number broadcast to every lane of `V`, for [`WideCurve::eval`].
     ///
     /// # Safety
@@ -203,13 +212,17 @@ impl<V: Vector, const N: usize> WideCurve<V, N> {
     /// The value at each lane of `x`: [`ExactCurve::eval`]'s bits in each lane, for a curve
     /// that [`ExactCurve::widens`]. [`Vector::le`] is Rust's `<=` (false when either side is
     /// NaN), `a.select(k, b)` is `if k { b } else { a }`, and `along` is the same `y + (x - x0) *
-    /// slope`, rounded after each operation (no fused multiply-add).
+    /// slope`, rounded after each operation (no fused multiply-add). The end: where `x < x[N-1]`
+    /// (`within`) the value is `along`, elsewhere `y[N-1]`; the raised `x` is never NaN, so
+    /// `within` is `!(x[N-1] <= x)`, `ExactCurve::eval`'s `!after`. (Written as `y[N-1]`
+    /// replaced by `along` where `within`, AVX-512 computes the last `+` only in those lanes, a
+    /// masked add in place of an add and a select.)
     ///
     /// Before the first point (or at a NaN) `ExactCurve::eval` gives `y[0]`; here `x` is first
     /// raised to `x[0]` (`x.max(x0)` gives its second operand `x0` for a NaN `x`, and for
     /// two zeros), and segment 0 at `x[0]` is `y[0] + 0 * slope[0]`: `y[0]` plus a zero, `y[0]`
     /// again since it is not `-0.0` and the slope is finite. The point after `x[0]` is further
-    /// (`x[0] < x[1]`), so segment 0 is the one chosen, and `after` is false (`x[0] < x[N-1]`).
+    /// (`x[0] < x[1]`), so segment 0 is the one chosen, and `within` is true (`x[0] < x[N-1]`).
     /// At or above `x[0]` the raised `x` is `x`, but when `x` and `x[0]` are zeros of opposite
     /// signs, where it is `x[0]`: segment 0 either way, and `x - x0` a zero either way, so the
     /// value is `y[0]` plus a zero, `y[0]`, either way.
@@ -230,8 +243,8 @@ impl<V: Vector, const N: usize> WideCurve<V, N> {
             slope = slope.select(past, self.slopes[j]);
         }
         let along = y.add(x.sub(x0).mul(slope));
-        let after = self.xs[N - 1].le(x);
-        along.select(after, self.ys[N - 1])
+        let within = x.lt(self.xs[N - 1]);
+        self.ys[N - 1].select(within, along)
     }
 }
 

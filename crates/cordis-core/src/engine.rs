@@ -240,6 +240,15 @@ macro_rules! exact_pairs {
                 }
             }
 
+            /// Whether the force `k(d) + z(v)` is never `-0.0`: one of the curves never gives
+            /// `-0.0` ([`ExactCurve::never_minus_zero`]), and a sum is `-0.0` only when both
+            /// terms are.
+            fn never_minus_zero(&self) -> bool {
+                match self {
+                    $(ExactPair::$v(k, z) => k.never_minus_zero() || z.never_minus_zero(),)*
+                }
+            }
+
             /// Whether `other` has the same curves, bit for bit.
             fn same_bits(&self, other: &ExactPair) -> bool {
                 match (self, other) {
@@ -5113,10 +5122,11 @@ mod tests {
 
     /// The grid step takes strings of REF, BUT and LNL links too, each cut into rows (`engine/grid.rs`
     /// `Sheet::string_at`), and gives the gather step's bits on one thread and on three: every
-    /// output and, after each block, every link force.
+    /// output and, after each block, every link force and position.
     /// With each vector width the CPU has, on one and three threads and in blocks of several
     /// sizes, `net` (with two link forces and an input added) takes the grid step and gives the
-    /// gather step's bits: every output sample and link force.
+    /// gather step's bits: every output sample, and after each block every link force and
+    /// position.
     fn grid_gives_the_gather_bits(name: &str, net: &mut Network) {
         let last = LinkId(net.links.len() as u32 - 1);
         net.add_force_output(last);
@@ -5147,6 +5157,14 @@ mod tests {
                 for l in 0..net.links.len() {
                     let l = LinkId(l as u32);
                     assert_eq!(grid.link_force(l).to_bits(), gather.link_force(l).to_bits());
+                }
+                for m in 0..net.materials.len() {
+                    let m = MatId(m as u32);
+                    let at = |e: &Engine| e.position(m).to_bits();
+                    assert!(
+                        at(&grid) == at(&gather),
+                        "{name}, {simd:?}, block {block}, {m:?}"
+                    );
                 }
             }
             assert!(moved, "{name}: the outputs never moved");
@@ -5427,6 +5445,46 @@ mod tests {
             },
         );
         nets.push(("200 LNL, a RES link to a hammer".into(), cut));
+        // signed zeros: MAS at `+0.0` or `-0.0` moving at `+0.0` or `-0.0`, grounds at either,
+        // and MAS 40 to 42 where `(0 + f_left) - f_right` is not `f_left - f_right`: MAS 41 at
+        // `-0.0` with `x(n-1) = +0.0` (`x + x - x(n-1) = -0.0`), its left link `-0.0` (both its
+        // products underflow), its right link `+0.0` (REF and BUT links keep the `0 +`); an LNL
+        // string of curves one of which has a `-0.0` value (its force is never `-0.0`:
+        // `StringLaw::NEVER_MINUS_ZERO`)
+        let zeros = |net: &mut Network| {
+            let tiny = -f64::from_bits(1); // (-5e-324)
+            for (i, mat) in net.materials.iter_mut().enumerate() {
+                let sign = |k: usize| if k.is_multiple_of(2) { 0.0 } else { -0.0 };
+                match mat {
+                    Material::Mas { x0, v0, .. } => {
+                        (*x0, *v0) = match i {
+                            40 => (tiny, tiny),
+                            41 | 42 => (-0.0, -0.0),
+                            _ => (sign(i), sign(i / 2 + i / 5)),
+                        }
+                    }
+                    Material::Sol { x0 } => *x0 = sign(i / 3),
+                    _ => {}
+                }
+            }
+        };
+        let spring_minus_zero: &[(f64, f64)] = &[(-0.004, -4e-4), (0.0, -0.0), (0.004, 4e-4)];
+        for (name, mut net) in [
+            ("100 REF", one(100, &nothing)),
+            (
+                "100 BUT 0",
+                bank(1, 100, |_| Interaction::But {
+                    k: 0.1,
+                    z: 1e-4,
+                    s: 0.0,
+                }),
+            ),
+            ("100 LNL -0 3", bank(1, 100, lnl(spring_minus_zero, damper))),
+            ("100 LNL 3 -0", bank(1, 100, lnl(damper, spring_minus_zero))),
+        ] {
+            zeros(&mut net);
+            nets.push((format!("{name}, signed zeros"), net));
+        }
         // strings of their own stiffnesses, each a sheet; a string and a membrane
         let own = |s: usize| Interaction::Ref {
             k: 0.1 + s as f64 / 100.0,
@@ -5489,6 +5547,11 @@ mod tests {
         assert_eq!(sheets(&bank(1, 100, lnl(five, damper))), 0);
         let minus_zero: &[(f64, f64)] = &[(-1.0, -0.0), (1.0, 1.0)];
         assert_eq!(sheets(&bank(1, 100, lnl(spring, minus_zero))), 0);
+        // (a `-0.0` value in both curves: the force may be `-0.0`)
+        let damper_minus_zero: &[(f64, f64)] = &[(-1.0, -1e-4), (1.0, 1e-4), (2.0, -0.0)];
+        let both = bank(1, 100, lnl(spring_minus_zero, damper_minus_zero));
+        assert_eq!(sheets(&both), 0);
+        assert_eq!(sheets(&bank(1, 100, lnl(spring_minus_zero, linear))), 1);
         let mut two = bank(1, 100, lnl(spring, damper));
         two.links[50].law = lnl(kinked, damper)(0);
         assert_eq!(sheets(&two), 0);

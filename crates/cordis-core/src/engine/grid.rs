@@ -71,7 +71,8 @@
 //! threads share as they share a membrane's rows: a piece reads the MAS before and after it, as
 //! a membrane's row reads the rows above and below. Eight MAS at a time, each velocity computed
 //! once, each link once (from the block and its neighbours on the right), `F(n) = (0 + f_left) -
-//! f_right`, the update: no force buffer, so a string of 10,000 MAS runs from the L2 cache at the
+//! f_right` (for LNL links, whose force the grid step makes sure is never `-0.0`, `f_left -
+//! f_right`, the same bits), the update: no force buffer, so a string of 10,000 MAS runs from the L2 cache at the
 //! speed one of 1,000 had from the L1 cache (docs/BENCHMARKS.md, eighteenth session). Each law
 //! is a [`StringLaw`] computing eight links with the gather step's operands and operations; an
 //! LNL string's curves are evaluated eight at a time by `curve.rs`'s `WideCurve` (whose doc
@@ -138,6 +139,13 @@ trait StringLaw: Copy {
     /// 7 % faster (its curves keep both vector ports busy; docs/BENCHMARKS.md).
     const LOADS: bool;
 
+    /// Whether `force` and `force_n` never give `-0.0`, so that [`Sheet::piece`]'s `F(n) = (0 +
+    /// f_left) - f_right` is `f_left - f_right` (`0 + a` is `a` but for `a = -0.0`; a NaN's bits
+    /// pass through): one operation fewer per block. REF and BUT links can give `-0.0` (`K (-0.0)
+    /// + Z (-0.0)`); the grid step takes LNL strings whose force never is
+    /// ([`ExactPair::never_minus_zero`]).
+    const NEVER_MINUS_ZERO: bool;
+
     /// The force of a link from its ends' positions and velocities (`x - x'`).
     fn force(&self, xa: f64, va: f64, xb: f64, vb: f64) -> f64;
 
@@ -160,6 +168,7 @@ struct RefLinks(f64, f64);
 
 impl StringLaw for RefLinks {
     const LOADS: bool = false;
+    const NEVER_MINUS_ZERO: bool = false;
 
     #[cfg(target_arch = "x86_64")]
     type Wide<V: Vector> = (V, V);
@@ -189,6 +198,7 @@ struct ButLinks(f64, f64, f64);
 
 impl StringLaw for ButLinks {
     const LOADS: bool = false;
+    const NEVER_MINUS_ZERO: bool = false;
 
     #[cfg(target_arch = "x86_64")]
     type Wide<V: Vector> = (V, V, V);
@@ -219,6 +229,7 @@ struct LnlLinks<const A: usize, const B: usize>(ExactCurve<A>, ExactCurve<B>);
 
 impl<const A: usize, const B: usize> StringLaw for LnlLinks<A, B> {
     const LOADS: bool = true;
+    const NEVER_MINUS_ZERO: bool = true;
 
     #[cfg(target_arch = "x86_64")]
     type Wide<V: Vector> = (WideCurve<V, A>, WideCurve<V, B>);
@@ -966,7 +977,9 @@ impl Sheet {
 
     /// The string of the MAS `run` (at least [`COLS_MIN`], each tied to the next), if the grid
     /// step takes it: each MAS's first two terms are links of one law and parameters (REF, BUT,
-    /// or LNL of curves the same bit for bit and of the kernel's `Lnl::Exact` form, that widen:
+    /// or LNL of curves the same bit for bit and of the kernel's `Lnl::Exact` form, that widen
+    /// and whose force is never `-0.0` (`StringLaw::NEVER_MINUS_ZERO`; both curves with a
+    /// `-0.0` value, which a person rarely writes, are left to the gather step):
     /// [`Strand`]) to the MAS before it (end 2) and after it (end 1), in either order, and the
     /// first and last MAS each have, in place of its missing neighbour, a link of that law to a
     /// SOL or nothing (a free end); a MAS with more terms is a fix, and at most a quarter of them
@@ -985,7 +998,7 @@ impl Sheet {
             Law::Ref => Strand::Ref,
             Law::But => Strand::But { s: k.ls[first] },
             Law::Lnl => match &k.lnl[k.lnl_of[first] as usize] {
-                Lnl::Exact(pair) if pair.widens() => Strand::Lnl(*pair),
+                Lnl::Exact(pair) if pair.widens() && pair.never_minus_zero() => Strand::Lnl(*pair),
                 _ => return None,
             },
             _ => return None,
@@ -1554,7 +1567,8 @@ impl Sheet {
     /// come in: `(0 + a) + b = (0 + b) + a` bit for bit (addition commutes, and `0 + a` is `a`
     /// but for `a = -0.0`, where both sides are `b`, or `+0.0` if `b` is `-0.0` too; only the
     /// payload of a NaN, a blow-up either way, could tell). A free end has no term: its link is
-    /// a `+0.0` here, which changes no bit (`(0 + 0) - f = 0 - f`, `y - 0 = y`).
+    /// a `+0.0` here, which changes no bit (`(0 + 0) - f = 0 - f`, `y - 0 = y`). Where the law's
+    /// force is never `-0.0` (`L::NEVER_MINUS_ZERO`), `0 + f_left` is `f_left`, and is left out.
     ///
     /// # Safety
     /// The CPU must have `V`'s instructions, and the caller be compiled with them.
@@ -1636,7 +1650,11 @@ impl Sheet {
                 };
                 let h = L::force_n(&wide, xa, va, xb, vb);
                 let left = hprev.prev1(h);
-                let f = zero.add(left).sub(h);
+                let f = if L::NEVER_MINUS_ZERO {
+                    left.sub(h)
+                } else {
+                    zero.add(left).sub(h)
+                };
                 update::<V, MASS, PER_MAS>(xa, pa, f, m, mr, c0).store(next.as_mut_ptr().add(c0));
                 hprev = h;
                 c0 += n;
@@ -1663,7 +1681,12 @@ impl Sheet {
         if after.is_none() {
             h = h.select(last, zero);
         }
-        let f = zero.add(hprev.prev1(h)).sub(h);
+        let left = hprev.prev1(h);
+        let f = if L::NEVER_MINUS_ZERO {
+            left.sub(h)
+        } else {
+            zero.add(left).sub(h)
+        };
         let m = if PER_MAS {
             V::load_part(&mr[full..])
         } else {
