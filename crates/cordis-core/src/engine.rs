@@ -5120,9 +5120,6 @@ mod tests {
         widths
     }
 
-    /// The grid step takes strings of REF, BUT and LNL links too, each cut into rows (`engine/grid.rs`
-    /// `Sheet::string_at`), and gives the gather step's bits on one thread and on three: every
-    /// output and, after each block, every link force and position.
     /// With each vector width the CPU has, on one and three threads and in blocks of several
     /// sizes, `net` (with two link forces and an input added) takes the grid step and gives the
     /// gather step's bits: every output sample, and after each block every link force and
@@ -5304,6 +5301,9 @@ mod tests {
         }
     }
 
+    /// The grid step takes strings of REF, BUT and LNL links too, each cut into rows (`engine/grid.rs`
+    /// `Sheet::string_at`), and gives the gather step's bits on one thread and on three: every
+    /// output and, after each block, every link force and position.
     #[test]
     fn the_grid_step_takes_strings_and_gives_the_gather_bits() {
         let refs = |_| Interaction::Ref { k: 0.1, z: 1e-4 };
