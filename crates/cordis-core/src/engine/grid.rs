@@ -530,6 +530,20 @@ struct RowArgs<'a> {
     up: &'a mut [f64],
 }
 
+/// What [`Sheet::rows_as`] steps a membrane's rows with: the whole state, the bottom grounds'
+/// `x(n)` and `x(n-1)` (the last row's below), the rows' `x(n+1)`, the inertias and the row
+/// buffers (see [`RowArgs`]).
+struct RowBufs<'a> {
+    x: &'a [f64],
+    xp: &'a [f64],
+    ground: (&'a [f64], &'a [f64]),
+    next: &'a mut [f64],
+    ms: &'a [f64],
+    vc: &'a mut [f64],
+    vn: &'a mut [f64],
+    up: &'a mut [f64],
+}
+
 impl Grid {
     /// The grid step of `k`, if its network holds membranes as the module's documentation says
     /// and the kernel is compiled for AVX-512 or AVX2.
@@ -1165,8 +1179,8 @@ impl Sheet {
         if rows.is_empty() {
             return;
         }
-        let (mut vc, rest) = scratch.split_at_mut(self.stride());
-        let (mut vn, rest) = rest.split_at_mut(self.stride());
+        let (vc, rest) = scratch.split_at_mut(self.stride());
+        let (vn, rest) = rest.split_at_mut(self.stride());
         let (up, rest) = rest.split_at_mut(self.stride());
         let (gx, gp) = rest.split_at_mut(self.stride());
         let link =
@@ -1190,17 +1204,52 @@ impl Sheet {
                 (gx[c], gp[c]) = (cur[g as usize], prev[g as usize]);
             }
         }
+        let bufs = RowBufs {
+            x: cur,
+            xp: prev,
+            ground: (&gx[..cols], &gp[..cols]),
+            next,
+            ms,
+            vc,
+            vn,
+            up,
+        };
+        self.rows_for_cpu(rows, bufs);
+    }
+
+    /// The rows `rows` of a membrane, one after the other (the last with the bottom grounds
+    /// below it), each as [`Sheet::row`] computes it in its order, the row buffers `vc` and
+    /// `vn` swapped after each: called once per step, so that the loops over the rows and in
+    /// them are compiled together, for the sheet's vector width and inertia law.
+    #[inline(always)]
+    fn rows_as<V: Vector, const MASS: u8, const PER_MAS: bool>(
+        &self,
+        rows: Range<usize>,
+        b: RowBufs<'_>,
+        row: impl Fn(&Sheet, bool, usize, RowArgs<'_>),
+    ) {
+        let cols = self.cols;
+        let RowBufs {
+            x,
+            xp,
+            ground,
+            next,
+            ms,
+            mut vc,
+            mut vn,
+            up,
+        } = b;
         for r in rows.clone() {
             let below = if r + 1 < self.rows {
                 let b = self.slots(&(r + 1..r + 2));
-                (&cur[b.clone()], &prev[b])
+                (&x[b.clone()], &xp[b])
             } else {
-                (&gx[..cols], &gp[..cols])
+                ground
             };
             let i = (r - rows.start) * cols;
             let args = RowArgs {
-                x: cur,
-                xp: prev,
+                x,
+                xp,
                 below,
                 next: &mut next[i..i + cols],
                 ms,
@@ -1208,7 +1257,7 @@ impl Sheet {
                 vn: &mut vn[..],
                 up: &mut up[..],
             };
-            self.row_for_cpu(r, args);
+            row(self, self.mid[r] == Order::UP_LAST, r, args);
             std::mem::swap(&mut vc, &mut vn);
         }
     }
@@ -1292,72 +1341,84 @@ impl Sheet {
         });
     }
 
-    /// [`Sheet::row`] compiled for the CPU's vector width, the row's order and the inertia law.
-    fn row_for_cpu(&self, r: usize, args: RowArgs<'_>) {
+    /// [`Sheet::rows_as`] compiled for the sheet's vector width, inertia law and per-MAS
+    /// inertias (each row's order chosen in the loop).
+    fn rows_for_cpu(&self, rows: Range<usize>, b: RowBufs<'_>) {
         #[cfg(target_arch = "x86_64")]
         {
             self.debug_check_simd();
-            macro_rules! row {
-                ($mass:ident, $up_last:literal, $per:literal) => {
+            macro_rules! rows {
+                ($mass:ident, $per:literal) => {
                     match self.simd {
                         // SAFETY: as in `strings_as`.
-                        Simd::Avx512(_) => unsafe {
-                            self.row_avx512::<$mass, $up_last, $per>(r, args)
-                        },
+                        Simd::Avx512(_) => unsafe { self.rows_avx512::<$mass, $per>(rows, b) },
                         // SAFETY: as in `strings_as`.
-                        Simd::Avx2 => unsafe { self.row_avx2::<$mass, $up_last, $per>(r, args) },
+                        Simd::Avx2 => unsafe { self.rows_avx2::<$mass, $per>(rows, b) },
                         Simd::None => {
                             unreachable!("a sheet is made only with vectors (`Grid::new`)")
                         }
                     }
                 };
             }
-            match (self.mass(), self.mid[r] == Order::UP_LAST, self.per_mas) {
-                (UNIT, true, _) => row!(UNIT, true, false),
-                (UNIT, false, _) => row!(UNIT, false, false),
-                (DIVIDE, true, false) => row!(DIVIDE, true, false),
-                (DIVIDE, false, false) => row!(DIVIDE, false, false),
-                (_, true, false) => row!(INV, true, false),
-                (_, false, false) => row!(INV, false, false),
-                (DIVIDE, true, true) => row!(DIVIDE, true, true),
-                (DIVIDE, false, true) => row!(DIVIDE, false, true),
-                (_, true, true) => row!(INV, true, true),
-                (_, false, true) => row!(INV, false, true),
+            match (self.mass(), self.per_mas) {
+                (UNIT, _) => rows!(UNIT, false),
+                (DIVIDE, false) => rows!(DIVIDE, false),
+                (_, false) => rows!(INV, false),
+                (DIVIDE, true) => rows!(DIVIDE, true),
+                (_, true) => rows!(INV, true),
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
-            let _ = (r, args);
+            let _ = (rows, b);
             unreachable!("a grid step needs AVX-512 or AVX2, which exist only on x86-64");
         }
     }
 
-    /// [`Sheet::row`] eight MAS at a time.
+    /// [`Sheet::rows_as`] eight MAS at a time.
     ///
     /// # Safety
     /// The CPU must have AVX-512F.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    unsafe fn row_avx512<const MASS: u8, const UP_LAST: bool, const PER_MAS: bool>(
+    unsafe fn rows_avx512<const MASS: u8, const PER_MAS: bool>(
         &self,
-        r: usize,
-        a: RowArgs<'_>,
+        rows: Range<usize>,
+        b: RowBufs<'_>,
     ) {
-        self.row::<V8, MASS, UP_LAST, PER_MAS>(r, a)
+        self.rows_as::<V8, MASS, PER_MAS>(rows, b, |s, up_last, r, a| {
+            // SAFETY: this function's CPU, and `row` is inlined into it.
+            unsafe {
+                if up_last {
+                    s.row::<V8, MASS, true, PER_MAS>(r, a)
+                } else {
+                    s.row::<V8, MASS, false, PER_MAS>(r, a)
+                }
+            }
+        })
     }
 
-    /// [`Sheet::row`] four MAS at a time.
+    /// [`Sheet::rows_as`] four MAS at a time.
     ///
     /// # Safety
     /// The CPU must have AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn row_avx2<const MASS: u8, const UP_LAST: bool, const PER_MAS: bool>(
+    unsafe fn rows_avx2<const MASS: u8, const PER_MAS: bool>(
         &self,
-        r: usize,
-        a: RowArgs<'_>,
+        rows: Range<usize>,
+        b: RowBufs<'_>,
     ) {
-        self.row::<V4, MASS, UP_LAST, PER_MAS>(r, a)
+        self.rows_as::<V4, MASS, PER_MAS>(rows, b, |s, up_last, r, a| {
+            // SAFETY: this function's CPU, and `row` is inlined into it.
+            unsafe {
+                if up_last {
+                    s.row::<V4, MASS, true, PER_MAS>(r, a)
+                } else {
+                    s.row::<V4, MASS, false, PER_MAS>(r, a)
+                }
+            }
+        })
     }
 
     /// Whether `next`, the sheet after this one, steps in one call with it ([`Grid::units`]):
@@ -1796,26 +1857,37 @@ impl Sheet {
                 h
             }};
         }
-        while c0 < full {
-            let xn = if c0 + n < full {
-                V::load(xr.as_ptr().add(c0 + n))
-            } else {
-                V::load_part(&xr[c0 + n..])
+        // a whole block from `c0 < full` (a macro, so that the loop below holds it twice)
+        macro_rules! whole {
+            () => {
+                let xn = if c0 + n < full {
+                    V::load(xr.as_ptr().add(c0 + n))
+                } else {
+                    V::load_part(&xr[c0 + n..])
+                };
+                let vnx = V::load(vc.as_ptr().add(c0 + n));
+                // the right neighbours: shifted by a lane, or (where that takes two
+                // instructions) loaded from one column further
+                let (xb, vb) = if V::SHIFT_IS_ONE {
+                    (xa.next1(xn), va.next1(vnx))
+                } else {
+                    (
+                        V::load(xr.as_ptr().add(c0 + 1)),
+                        V::load(vc.as_ptr().add(c0 + 1)),
+                    )
+                };
+                hprev = block!(xb, vb, false);
+                (xa, va) = (xn, vnx);
+                c0 += n;
             };
-            let vnx = V::load(vc.as_ptr().add(c0 + n));
-            // the right neighbours: shifted by a lane, or (where that takes two instructions)
-            // loaded from one column further
-            let (xb, vb) = if V::SHIFT_IS_ONE {
-                (xa.next1(xn), va.next1(vnx))
-            } else {
-                (
-                    V::load(xr.as_ptr().add(c0 + 1)),
-                    V::load(vc.as_ptr().add(c0 + 1)),
-                )
-            };
-            hprev = block!(xb, vb, false);
-            (xa, va) = (xn, vnx);
-            c0 += n;
+        }
+        // two blocks per loop turn, as `Sheet::piece`
+        while c0 + n < full {
+            whole!();
+            whole!();
+        }
+        if c0 < full {
+            whole!();
         }
         // the last block: its right neighbours within it, then the ground's in the last lane
         // (`vc`'s lanes after the row's are left out, whatever they hold)
