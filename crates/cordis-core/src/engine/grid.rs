@@ -1221,12 +1221,15 @@ impl Sheet {
     /// below it), each as [`Sheet::row`] computes it in its order, the row buffers `vc` and
     /// `vn` swapped after each: called once per step, so that the loops over the rows and in
     /// them are compiled together, for the sheet's vector width and inertia law.
+    ///
+    /// # Safety
+    /// The CPU must have `V`'s instructions, and the caller be compiled with them.
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn rows_as<V: Vector, const MASS: u8, const PER_MAS: bool>(
+    unsafe fn rows_as<V: Vector, const MASS: u8, const PER_MAS: bool>(
         &self,
         rows: Range<usize>,
         b: RowBufs<'_>,
-        row: impl Fn(&Sheet, bool, usize, RowArgs<'_>),
     ) {
         let cols = self.cols;
         let RowBufs {
@@ -1257,7 +1260,11 @@ impl Sheet {
                 vn: &mut vn[..],
                 up: &mut up[..],
             };
-            row(self, self.mid[r] == Order::UP_LAST, r, args);
+            if self.mid[r] == Order::UP_LAST {
+                self.row::<V, MASS, true, PER_MAS>(r, args)
+            } else {
+                self.row::<V, MASS, false, PER_MAS>(r, args)
+            }
             std::mem::swap(&mut vc, &mut vn);
         }
     }
@@ -1386,16 +1393,7 @@ impl Sheet {
         rows: Range<usize>,
         b: RowBufs<'_>,
     ) {
-        self.rows_as::<V8, MASS, PER_MAS>(rows, b, |s, up_last, r, a| {
-            // SAFETY: this function's CPU, and `row` is inlined into it.
-            unsafe {
-                if up_last {
-                    s.row::<V8, MASS, true, PER_MAS>(r, a)
-                } else {
-                    s.row::<V8, MASS, false, PER_MAS>(r, a)
-                }
-            }
-        })
+        self.rows_as::<V8, MASS, PER_MAS>(rows, b)
     }
 
     /// [`Sheet::rows_as`] four MAS at a time.
@@ -1409,16 +1407,7 @@ impl Sheet {
         rows: Range<usize>,
         b: RowBufs<'_>,
     ) {
-        self.rows_as::<V4, MASS, PER_MAS>(rows, b, |s, up_last, r, a| {
-            // SAFETY: this function's CPU, and `row` is inlined into it.
-            unsafe {
-                if up_last {
-                    s.row::<V4, MASS, true, PER_MAS>(r, a)
-                } else {
-                    s.row::<V4, MASS, false, PER_MAS>(r, a)
-                }
-            }
-        })
+        self.rows_as::<V4, MASS, PER_MAS>(rows, b)
     }
 
     /// Whether `next`, the sheet after this one, steps in one call with it ([`Grid::units`]):
