@@ -47,6 +47,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::curve::{ExactCurve, SmallCurve};
 use crate::lanes::{Avx512, LANES};
+use crate::lines::Lines;
 use crate::parallel::{Poisoned, Pool, SharedBuf, SpinBarrier, Task};
 use crate::{Curve, Interaction, LinkId, MatId, Material, Network, Output, Probe, Signal};
 
@@ -500,7 +501,7 @@ struct State {
     c: usize,
     /// `pos[n % 3]` is `x(n)`, `pos[(n + 2) % 3]` is `x(n-1)`, `pos[(n + 1) % 3]` is `x(n-2)`
     /// (storage order; SOL positions in all three).
-    pos: [Vec<f64>; 3],
+    pos: [Lines; 3],
     /// `f(n)` of the links `[0, nl)` (by storage slot), ENF samples `[nl, ..)`.
     sf: Vec<f64>,
     /// `x(n)` and `x(n-1)` of the moving materials (`0..n_mce`) at the start of the block.
@@ -509,7 +510,7 @@ struct State {
     /// `F(n)` of each material while a compact step accumulates it (empty otherwise)
     acc: Vec<f64>,
     /// the row buffers of the grid step, `Grid::scratch_len` per thread (empty without one)
-    grid: Vec<f64>,
+    grid: Lines,
     /// `(x, x - x')` of each material, for the pull step: one buffer for step `n`, one for `n + 1`
     /// (empty without a pull step)
     pairs: [Vec<[f64; 2]>; 2],
@@ -736,13 +737,13 @@ impl Engine {
         let mut st = State {
             n: 0,
             c: 0,
-            pos: [vec![0.0; nm], vec![0.0; nm], vec![0.0; nm]],
+            pos: [Lines::zeros(nm), Lines::zeros(nm), Lines::zeros(nm)],
             sf: vec![0.0; k.sf_len],
             snap: [vec![0.0; k.n_mce], vec![0.0; k.n_mce]],
             blown: None,
             acc: vec![0.0; if k.compact { k.nm } else { 0 }],
             pairs: [(); 2].map(|()| vec![[0.0; 2]; if k.pull.is_some() { nm } else { 0 }]),
-            grid: vec![0.0; k.grid.as_ref().map_or(0, |g| g.scratch_len())],
+            grid: Lines::zeros(k.grid.as_ref().map_or(0, |g| g.scratch_len())),
         };
         st.reset(&k);
         Engine {
@@ -810,7 +811,10 @@ impl Engine {
     fn grid_partition(&mut self) {
         if let Some(g) = self.k.grid.as_deref() {
             self.k.grid_shares = g.partition(self.threads);
-            self.st.grid.resize(self.threads * g.scratch_len(), 0.0);
+            let len = self.threads * g.scratch_len();
+            if self.st.grid.len() != len {
+                self.st.grid = Lines::zeros(len);
+            }
         }
     }
 
@@ -3013,7 +3017,7 @@ impl Roles {
 
     /// `(x(n), x(n-1), next)` of the three buffers.
     #[inline(always)]
-    fn split(self, pos: &mut [Vec<f64>; 3]) -> (&[f64], &[f64], &mut [f64]) {
+    fn split(self, pos: &mut [Lines; 3]) -> (&[f64], &[f64], &mut [f64]) {
         let [p0, p1, p2] = pos;
         match self.cur {
             0 => (p0, p2, p1),
@@ -4920,6 +4924,28 @@ mod tests {
             out.add_link(tie, shift(MatId(3)), MatId(second.0 + cols as u32 + 9));
         }
         out
+    }
+
+    /// The position buffers and each thread's row buffers start on a cache line (`lines.rs`),
+    /// for every thread count and in a clone: a whole vector load from a line's start touches
+    /// one line.
+    #[test]
+    fn position_and_row_buffers_start_on_a_line() {
+        let on_line = |b: &[f64]| b.as_ptr() as usize % 64 == 0;
+        let mut e = Engine::new(&membrane(5, 37, |_| 1.0));
+        for threads in [1, 2, 3, 1] {
+            e.set_threads(threads);
+            let mut out = vec![0.0; 8 * e.k.channels.len()];
+            e.process(8, &mut out).unwrap();
+            for st in [&e.st, &e.st.clone()] {
+                assert!(st.pos.iter().all(|b| on_line(b)), "{threads} threads");
+                if let Some(g) = e.k.grid.as_deref() {
+                    let len = g.scratch_len();
+                    assert!(len % crate::lines::LINE == 0 && st.grid.len() == threads * len);
+                    assert!(st.grid.chunks(len).all(on_line), "{threads} threads");
+                }
+            }
+        }
     }
 
     /// The grid step is taken for the membranes it fits (`engine/grid.rs`) and for nothing else,

@@ -37,6 +37,7 @@
 mod curve;
 mod engine;
 mod lanes;
+mod lines;
 mod network;
 mod parallel;
 mod signal;

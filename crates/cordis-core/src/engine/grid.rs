@@ -88,6 +88,7 @@ use crate::curve::ExactCurve;
 #[cfg(target_arch = "x86_64")]
 use crate::curve::WideCurve;
 use crate::lanes::LANES;
+use crate::lines::LINE;
 use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
 #[cfg(target_arch = "x86_64")]
 use crate::wide::{Vector, V4, V8};
@@ -1107,8 +1108,10 @@ impl Sheet {
         Some(())
     }
 
+    /// A row buffer's length: a row and two blocks, rounded up to whole cache lines (so that
+    /// the row buffers, one after the other from a line, each start on one).
     fn stride(&self) -> usize {
-        self.cols + 2 * LANES
+        (self.cols + 2 * LANES).next_multiple_of(LINE)
     }
 
     /// Where row `r` starts: its offset from `base` (`r` may be `rows`: the end of the last).

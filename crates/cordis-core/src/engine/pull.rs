@@ -285,7 +285,7 @@ impl Pull {
     /// change) in buffer 1 too.
     pub(super) fn prepare(&self, k: &Kernel, st: &mut State) {
         let r = Roles::at(st.c);
-        let (x, xp) = (&st.pos[r.cur], &st.pos[r.prev]);
+        let (x, xp): (&[f64], &[f64]) = (&st.pos[r.cur], &st.pos[r.prev]);
         let [p0, p1] = &mut st.pairs;
         assert!(p0.len() == k.nm && p1.len() == k.nm);
         for ((p, &x), &xp) in p0.iter_mut().zip(x).zip(xp) {
