@@ -52,8 +52,6 @@ pub(crate) trait Vector: Copy {
     unsafe fn select(self, m: Self::Mask, b: Self) -> Self;
     /// `if m { self } else { +0.0 }`, lane by lane.
     unsafe fn keep(self, m: Self::Mask) -> Self;
-    /// Lanes `0..n` (`n <= N`).
-    unsafe fn first(n: usize) -> Self::Mask;
     /// Lane `i` alone (`i < N`).
     unsafe fn lane(i: usize) -> Self::Mask;
     /// `[self[1], .., self[N-1], b[0]]`: the right neighbours of `N` items from theirs and the
@@ -139,10 +137,6 @@ impl Vector for V8 {
     #[inline(always)]
     unsafe fn keep(self, m: __mmask8) -> Self {
         V8(_mm512_maskz_mov_pd(m, self.0))
-    }
-    #[inline(always)]
-    unsafe fn first(n: usize) -> __mmask8 {
-        crate::lanes::mask(n)
     }
     #[inline(always)]
     unsafe fn lane(i: usize) -> __mmask8 {
@@ -239,10 +233,6 @@ impl Vector for V4 {
     #[inline(always)]
     unsafe fn keep(self, m: __m256d) -> Self {
         V4(_mm256_and_pd(m, self.0))
-    }
-    #[inline(always)]
-    unsafe fn first(n: usize) -> __m256d {
-        _mm256_castsi256_pd(mask4(n))
     }
     #[inline(always)]
     unsafe fn lane(i: usize) -> __m256d {
@@ -357,10 +347,6 @@ mod tests {
         for i in 0..n {
             let one: Vec<f64> = (0..n).map(|j| if j == i { b[j] } else { a[j] }).collect();
             assert_eq!(lanes(va.select(V::lane(i), vb)), one);
-        }
-        for len in 0..=n {
-            let kept: Vec<f64> = (0..n).map(|j| if j < len { a[j] } else { 0.0 }).collect();
-            assert_eq!(bits(&lanes(va.keep(V::first(len)))), bits(&kept));
         }
         assert_eq!(bits(&lanes(V::zero())), bits(&vec![0.0; n]));
         assert_eq!(lanes(V::splat(-3.25)), vec![-3.25; n]);

@@ -14,8 +14,9 @@
 //! each its own (`Sheet::per_mas`: the row loop then loads eight of them where it would
 //! broadcast one). Going down each sheet's rows, eight MAS at a time:
 //!
-//! - each MAS's velocity `v = x(n) - x(n-1)` is computed once, when its row is the one below, and
-//!   kept in a row buffer;
+//! - each MAS's velocity `v = x(n) - x(n-1)` is computed where it is needed: in its row, and
+//!   when its row is the one below (a subtraction costs less than keeping it in a row buffer, a
+//!   store and a load, docs/BENCHMARKS.md, twenty-fourth session);
 //! - the horizontal links of eight MAS are computed from their `x`, `v` and the next eight's,
 //!   shifted by one lane; the link on the left of the first is the last lane of the block before;
 //! - the vertical links down to the row below are computed, and kept in a row buffer: they are
@@ -526,8 +527,6 @@ struct RowArgs<'a> {
     /// Every material's `1 / M` or `M` (by storage slot), or nothing when all the sheet's MAS
     /// have one ([`Sheet::per_mas`])
     ms: &'a [f64],
-    vc: &'a [f64],
-    vn: &'a mut [f64],
     up: &'a mut [f64],
 }
 
@@ -540,8 +539,6 @@ struct RowBufs<'a> {
     ground: (&'a [f64], &'a [f64]),
     next: &'a mut [f64],
     ms: &'a [f64],
-    vc: &'a mut [f64],
-    vn: &'a mut [f64],
     up: &'a mut [f64],
 }
 
@@ -671,12 +668,12 @@ impl Grid {
         self.units.len()
     }
 
-    /// The scratch one thread needs: five row buffers of the widest membrane (velocities of two
-    /// rows, the links up, the grounds' `x(n)` and `x(n-1)` of the top or bottom row).
+    /// The scratch one thread needs: three row buffers of the widest membrane (the links up, the
+    /// grounds' `x(n)` and `x(n-1)` of the bottom row).
     pub(super) fn scratch_len(&self) -> usize {
         (self.sheets.iter())
             .filter(|s| s.starts.is_empty())
-            .map(|s| 5 * s.stride())
+            .map(|s| 3 * s.stride())
             .max()
             .unwrap_or(0)
     }
@@ -1134,7 +1131,7 @@ impl Sheet {
     }
 
     /// Step `n` of `rows`: `x(n+1)` of their MAS into `next` (exactly their slots), from `x(n)`,
-    /// `x(n-1)` of every material, with `scratch` (for a membrane at least five row buffers,
+    /// `x(n-1)` of every material, with `scratch` (for a membrane at least three row buffers,
     /// [`Grid::scratch_len`]).
     #[allow(clippy::too_many_arguments)] // the step's buffers
     fn step(
@@ -1178,29 +1175,25 @@ impl Sheet {
     ) {
         let cols = self.cols;
         assert!(cur.len() == k.nm && prev.len() == k.nm && rows.end <= self.rows);
-        assert!(next.len() == rows.len() * cols && scratch.len() >= 5 * self.stride());
+        assert!(next.len() == rows.len() * cols && scratch.len() >= 3 * self.stride());
         if rows.is_empty() {
             return;
         }
-        let (vc, rest) = scratch.split_at_mut(self.stride());
-        let (vn, rest) = rest.split_at_mut(self.stride());
-        let (up, rest) = rest.split_at_mut(self.stride());
+        let (up, rest) = scratch.split_at_mut(self.stride());
         let (gx, gp) = rest.split_at_mut(self.stride());
         let link =
             |xa: f64, va: f64, xb: f64, vb: f64| RefLaw::force(self.k, self.z, 0.0, xa, va, xb, vb);
         let ms = self.inertias(k);
-        // the first row's velocities, and the links into it from above
+        // the links into the first row from above
         let r0 = self.base + rows.start * cols;
-        for (c, v) in vc[..cols].iter_mut().enumerate() {
-            *v = cur[r0 + c] - prev[r0 + c];
-        }
         for c in 0..cols {
             let a = if rows.start == 0 {
                 self.top[c] as usize
             } else {
                 r0 - cols + c
             };
-            up[c] = link(cur[a], cur[a] - prev[a], cur[r0 + c], vc[c]);
+            let b = r0 + c;
+            up[c] = link(cur[a], cur[a] - prev[a], cur[b], cur[b] - prev[b]);
         }
         if rows.end == self.rows {
             for (c, &g) in self.bottom.iter().enumerate() {
@@ -1213,16 +1206,14 @@ impl Sheet {
             ground: (&gx[..cols], &gp[..cols]),
             next,
             ms,
-            vc,
-            vn,
             up,
         };
         self.rows_for_cpu(rows, bufs);
     }
 
     /// The rows `rows` of a membrane, one after the other (the last with the bottom grounds
-    /// below it), each as [`Sheet::row`] computes it in its order, the row buffers `vc` and
-    /// `vn` swapped after each: called once per step, so that the loops over the rows and in
+    /// below it), each as [`Sheet::row`] computes it in its order: called once per step, so
+    /// that the loops over the rows and in
     /// them are compiled together, for the sheet's vector width and inertia law.
     ///
     /// # Safety
@@ -1241,8 +1232,6 @@ impl Sheet {
             ground,
             next,
             ms,
-            mut vc,
-            mut vn,
             up,
         } = b;
         for r in rows.clone() {
@@ -1259,8 +1248,6 @@ impl Sheet {
                 below,
                 next: &mut next[i..i + cols],
                 ms,
-                vc: &vc[..],
-                vn: &mut vn[..],
                 up: &mut up[..],
             };
             if self.mid[r] == Order::UP_LAST {
@@ -1268,7 +1255,6 @@ impl Sheet {
             } else {
                 self.row::<V, MASS, false, PER_MAS>(r, args)
             }
-            std::mem::swap(&mut vc, &mut vn);
         }
     }
 
@@ -1749,9 +1735,8 @@ impl Sheet {
     }
 
     /// Row `r`: `x(n+1)` into `next`, from the state `x`, `xp`, the row below (`x(n)`, `x(n-1)`,
-    /// `cols` each: the next row, or the bottom grounds), the row's velocities `vc`; writes the
-    /// row below's velocities into `vn` and its links down into `up` (where they were the links up).
-    /// Each MAS's `1 / M` or `M` is `Sheet::m`, or (`PER_MAS`) its own in `ms`. `V::N` MAS at a
+    /// `cols` each: the next row, or the bottom grounds) and the links up `up`; writes the row's
+    /// links down into `up` (the links up of the row below). Each MAS's `1 / M` or `M` is `Sheet::m`, or (`PER_MAS`) its own in `ms`. `V::N` MAS at a
     /// time.
     ///
     /// # Safety
@@ -1771,8 +1756,6 @@ impl Sheet {
             below: (xd, pd),
             next,
             ms,
-            vc,
-            vn,
             up,
         } = a;
         let row = self.base + r * cols;
@@ -1781,23 +1764,22 @@ impl Sheet {
         let mr = if PER_MAS { &ms[row..row + cols] } else { &[] };
         let m_at = |c: usize| if PER_MAS { mr[c] } else { self.m };
         assert!(xd.len() == cols && pd.len() == cols && next.len() == cols);
-        assert!(vc.len() == stride && vn.len() == stride && up.len() == stride);
+        assert!(up.len() == stride);
         assert!(cols >= COLS_MIN && n <= LANES);
         let law = RefLinks(self.k, self.z);
         let link = |xa: f64, va: f64, xb: f64, vb: f64| law.force(xa, va, xb, vb);
         // the link on the left of column 0, from this row's left ground
         let gl = self.left[r] as usize;
-        let h0 = link(x[gl], x[gl] - xp[gl], xr[0], vc[0]);
+        let h0 = link(x[gl], x[gl] - xp[gl], xr[0], xr[0] - pr[0]);
         // whole blocks: columns `0..full`, the last of which has a right neighbour in the row;
-        // the last block, columns `full..cols` (1 to `n`, the lanes of `tail`), the last of which
-        // has this row's right ground
+        // the last block, columns `full..cols` (its first 1 to `n` lanes), the last of which has
+        // this row's right ground
         let full = (cols - 1) / n * n;
-        let tail = V::first(cols - full);
         let gr = self.right[r] as usize;
         let (xg, vg) = (x[gr], x[gr] - xp[gr]);
         let (u0, u_last) = (up[0], up[cols - 1]);
         // SAFETY: every load and store is of `n` items from `c0 <= full` on, `full + n <= cols +
-        // n - 1 < stride`, within the row buffers (`stride` each), or within `xr`, `pr`, `xd`,
+        // n - 1 < stride`, within the row buffer `up` (`stride`), or within `xr`, `pr`, `xd`,
         // `pd`, `next`, and with `PER_MAS` `mr` (`cols` each, asserted above; `mr` sliced to
         // `cols`): whole from `c0 < full` (so `c0 + n <= full < cols`), or `V::load_part` and
         // `store_part` of their items from `full`, which touch those slices' items alone.
@@ -1805,7 +1787,8 @@ impl Sheet {
         let m = V::splat(self.m);
         let zero = V::zero();
         let mut xa = V::load(xr.as_ptr());
-        let mut va = V::load(vc.as_ptr());
+        let mut pa = V::load(pr.as_ptr());
+        let mut va = xa.sub(pa);
         let mut hprev = V::splat(h0);
         let mut c0 = 0;
         // `n` items of a row from `c0`, or (`$tail`) those of the last block
@@ -1827,7 +1810,6 @@ impl Sheet {
                 let left = hprev.prev1(h);
                 let xdn = load!(xd, $tail);
                 let vd = xdn.sub(load!(pd, $tail));
-                vd.store(vn.as_mut_ptr().add(c0));
                 let d = RefLinks::force_n(&w, xa, va, xdn, vd);
                 let u = V::load(up.as_ptr().add(c0));
                 d.store(up.as_mut_ptr().add(c0));
@@ -1838,12 +1820,11 @@ impl Sheet {
                 } else {
                     f.add(u).sub(d)
                 };
-                let p = load!(pr, $tail);
                 if $tail {
                     let m = if PER_MAS { V::load_part(&mr[c0..]) } else { m };
-                    update::<V, MASS, false>(xa, p, f, m, mr, c0).store_part(&mut next[c0..]);
+                    update::<V, MASS, false>(xa, pa, f, m, mr, c0).store_part(&mut next[c0..]);
                 } else {
-                    let out = update::<V, MASS, PER_MAS>(xa, p, f, m, mr, c0);
+                    let out = update::<V, MASS, PER_MAS>(xa, pa, f, m, mr, c0);
                     out.store(next.as_mut_ptr().add(c0));
                 }
                 h
@@ -1852,24 +1833,24 @@ impl Sheet {
         // a whole block from `c0 < full` (a macro, so that the loop below holds it twice)
         macro_rules! whole {
             () => {
-                let xn = if c0 + n < full {
-                    V::load(xr.as_ptr().add(c0 + n))
+                // the next block (the last one's lanes past the row read as `0.0`)
+                let (xn, pn) = if c0 + n < full {
+                    let at = c0 + n;
+                    (V::load(xr.as_ptr().add(at)), V::load(pr.as_ptr().add(at)))
                 } else {
-                    V::load_part(&xr[c0 + n..])
+                    (V::load_part(&xr[c0 + n..]), V::load_part(&pr[c0 + n..]))
                 };
-                let vnx = V::load(vc.as_ptr().add(c0 + n));
+                let vnx = xn.sub(pn);
                 // the right neighbours: shifted by a lane, or (where that takes two
                 // instructions) loaded from one column further
                 let (xb, vb) = if V::SHIFT_IS_ONE {
                     (xa.next1(xn), va.next1(vnx))
                 } else {
-                    (
-                        V::load(xr.as_ptr().add(c0 + 1)),
-                        V::load(vc.as_ptr().add(c0 + 1)),
-                    )
+                    let xb = V::load(xr.as_ptr().add(c0 + 1));
+                    (xb, xb.sub(V::load(pr.as_ptr().add(c0 + 1))))
                 };
                 hprev = block!(xb, vb, false);
-                (xa, va) = (xn, vnx);
+                (xa, va, pa) = (xn, vnx, pn);
                 c0 += n;
             };
         }
@@ -1882,8 +1863,6 @@ impl Sheet {
             whole!();
         }
         // the last block: its right neighbours within it, then the ground's in the last lane
-        // (`vc`'s lanes after the row's are left out, whatever they hold)
-        va = va.keep(tail);
         let last = V::lane(cols - full - 1);
         let xb = xa.next1(zero).select(last, V::splat(xg));
         let vb = va.next1(zero).select(last, V::splat(vg));
@@ -1895,15 +1874,15 @@ impl Sheet {
             Order::CANONICAL
         };
         if self.first[r] != mid {
-            let (x0, v0) = (xr[0], vc[0]);
-            let h = link(x0, v0, xr[1], vc[1]);
+            let (x0, v0) = (xr[0], xr[0] - pr[0]);
+            let h = link(x0, v0, xr[1], xr[1] - pr[1]);
             let f = self.first[r].sum([h0, -h, u0, -up[0]]);
             next[0] = Self::update_as::<MASS>(x0, pr[0], f, m_at(0));
         }
         if self.last[r] != mid {
             let c = cols - 1;
-            let (x0, v0) = (xr[c], vc[c]);
-            let hl = link(xr[c - 1], vc[c - 1], x0, v0);
+            let (x0, v0) = (xr[c], xr[c] - pr[c]);
+            let hl = link(xr[c - 1], xr[c - 1] - pr[c - 1], x0, v0);
             let f = self.last[r].sum([hl, -link(x0, v0, xg, vg), u_last, -up[c]]);
             next[c] = Self::update_as::<MASS>(x0, pr[c], f, m_at(c));
         }
