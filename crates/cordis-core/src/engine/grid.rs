@@ -45,8 +45,8 @@
 //! SOL: the link of a MAS to itself is `K (x - x) + Z (v - v)`, a zero, for a finite `x` and `v`,
 //! and a zero added to `F`, which is never `-0.0`, gives `F` back. (A non-finite `x` or `v` makes
 //! the MAS's links to its neighbours non-finite in the reference as well: a blow-up either way,
-//! which the gather step replays.) Its side comes after the MAS's terms in its [`Order`]: the top row
-//! of a free membrane sums left-right-down, the bottom row left-right-up.
+//! which the gather step replays.) Its side comes after the MAS's terms in its [`Order`]: the top
+//! row of a free membrane sums left-right-down, the bottom row left-right-up.
 //!
 //! **Around the membranes.** The sheet's terms of a MAS come first; a MAS with more (a link to a
 //! hammer, a string, another MAS of the sheet or of another sheet; ENF inputs) is a *fix*,
@@ -73,8 +73,9 @@
 //! a membrane's row reads the rows above and below. Eight MAS at a time, each velocity computed
 //! once, each link once (from the block and its neighbours on the right), `F(n) = (0 + f_left) -
 //! f_right` (for LNL links, whose force the grid step makes sure is never `-0.0`, `f_left -
-//! f_right`, the same bits), the update: no force buffer, so a string of 10,000 MAS runs from the L2 cache at the
-//! speed one of 1,000 had from the L1 cache (docs/BENCHMARKS.md, eighteenth session). Each law
+//! f_right`, the same bits), the update: no force buffer, so a string of 10,000 MAS runs from the
+//! L2 cache at the speed one of 1,000 had from the L1 cache (docs/BENCHMARKS.md, eighteenth
+//! session). Each law
 //! is a [`StringLaw`] computing eight links with the gather step's operands and operations; an
 //! LNL string's curves are evaluated eight at a time by `curve.rs`'s `WideCurve` (whose doc
 //! shows they give `ExactCurve::eval`'s bits), in a piece compiled for its pair of point counts
@@ -1213,8 +1214,8 @@ impl Sheet {
 
     /// The rows `rows` of a membrane, one after the other (the last with the bottom grounds
     /// below it), each as [`Sheet::row`] computes it in its order: called once per step, so
-    /// that the loops over the rows and in
-    /// them are compiled together, for the sheet's vector width and inertia law.
+    /// that the loops over the rows and in them are compiled together, for the sheet's vector
+    /// width and inertia law.
     ///
     /// # Safety
     /// The CPU must have `V`'s instructions, and the caller be compiled with them.
@@ -1736,8 +1737,9 @@ impl Sheet {
 
     /// Row `r`: `x(n+1)` into `next`, from the state `x`, `xp`, the row below (`x(n)`, `x(n-1)`,
     /// `cols` each: the next row, or the bottom grounds) and the links up `up`; writes the row's
-    /// links down into `up` (the links up of the row below). Each MAS's `1 / M` or `M` is `Sheet::m`, or (`PER_MAS`) its own in `ms`. `V::N` MAS at a
-    /// time.
+    /// links down into `up` (the links up of the row below). Each MAS's velocity is computed
+    /// from the row's `x(n)` and `x(n-1)`, which the update loads anyway. Each MAS's `1 / M` or
+    /// `M` is `Sheet::m`, or (`PER_MAS`) its own in `ms`. `V::N` MAS at a time.
     ///
     /// # Safety
     /// The CPU must have `V`'s instructions, and the caller be compiled with them.
