@@ -4931,7 +4931,7 @@ mod tests {
     /// one line.
     #[test]
     fn position_and_row_buffers_start_on_a_line() {
-        let on_line = |b: &[f64]| b.as_ptr() as usize % 64 == 0;
+        let on_line = |b: &[f64]| (b.as_ptr() as usize).is_multiple_of(64);
         let mut e = Engine::new(&membrane(5, 37, |_| 1.0));
         for threads in [1, 2, 3, 1] {
             e.set_threads(threads);
@@ -4941,7 +4941,8 @@ mod tests {
                 assert!(st.pos.iter().all(|b| on_line(b)), "{threads} threads");
                 if let Some(g) = e.k.grid.as_deref() {
                     let len = g.scratch_len();
-                    assert!(len % crate::lines::LINE == 0 && st.grid.len() == threads * len);
+                    assert!(len.is_multiple_of(crate::lines::LINE));
+                    assert_eq!(st.grid.len(), threads * len);
                     assert!(st.grid.chunks(len).all(on_line), "{threads} threads");
                 }
             }

@@ -80,7 +80,7 @@ mod tests {
             }
             let c = b.clone();
             for l in [&b, &c] {
-                assert_eq!(l.as_ptr() as usize % 64, 0, "len {len}");
+                assert!((l.as_ptr() as usize).is_multiple_of(64), "len {len}");
                 assert!(l.iter().enumerate().all(|(i, &x)| x == i as f64 - 0.5));
             }
             kept.push((b, c));

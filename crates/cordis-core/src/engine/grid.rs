@@ -1187,14 +1187,14 @@ impl Sheet {
         let ms = self.inertias(k);
         // the links into the first row from above
         let r0 = self.base + rows.start * cols;
-        for c in 0..cols {
+        for (c, u) in up[..cols].iter_mut().enumerate() {
             let a = if rows.start == 0 {
                 self.top[c] as usize
             } else {
                 r0 - cols + c
             };
             let b = r0 + c;
-            up[c] = link(cur[a], cur[a] - prev[a], cur[b], cur[b] - prev[b]);
+            *u = link(cur[a], cur[a] - prev[a], cur[b], cur[b] - prev[b]);
         }
         if rows.end == self.rows {
             for (c, &g) in self.bottom.iter().enumerate() {
