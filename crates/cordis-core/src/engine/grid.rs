@@ -518,8 +518,10 @@ pub(super) fn may_hold(net: &Network) -> bool {
             .any(|(_, (lo, hi))| hi - lo >= COLS_MIN && next[lo] && next[hi])
 }
 
-/// The `x(n+1)` of one row: the whole state, the row below's `x(n)` and `x(n-1)`, and the
-/// row buffers (see [`Sheet::row`]).
+/// What a membrane's rows are stepped with: the whole state, what lies below (`x(n)` and
+/// `x(n-1)`: for [`Sheet::row`] the row below or the bottom grounds, for [`Sheet::rows_as`] the
+/// bottom grounds, the last row's below), `x(n+1)` of the row (of all the rows for `rows_as`),
+/// the inertias and the row buffer of the links up.
 struct RowArgs<'a> {
     x: &'a [f64],
     xp: &'a [f64],
@@ -527,18 +529,6 @@ struct RowArgs<'a> {
     next: &'a mut [f64],
     /// Every material's `1 / M` or `M` (by storage slot), or nothing when all the sheet's MAS
     /// have one ([`Sheet::per_mas`])
-    ms: &'a [f64],
-    up: &'a mut [f64],
-}
-
-/// What [`Sheet::rows_as`] steps a membrane's rows with: the whole state, the bottom grounds'
-/// `x(n)` and `x(n-1)` (the last row's below), the rows' `x(n+1)`, the inertias and the row
-/// buffers (see [`RowArgs`]).
-struct RowBufs<'a> {
-    x: &'a [f64],
-    xp: &'a [f64],
-    ground: (&'a [f64], &'a [f64]),
-    next: &'a mut [f64],
     ms: &'a [f64],
     up: &'a mut [f64],
 }
@@ -1201,10 +1191,10 @@ impl Sheet {
                 (gx[c], gp[c]) = (cur[g as usize], prev[g as usize]);
             }
         }
-        let bufs = RowBufs {
+        let bufs = RowArgs {
             x: cur,
             xp: prev,
-            ground: (&gx[..cols], &gp[..cols]),
+            below: (&gx[..cols], &gp[..cols]),
             next,
             ms,
             up,
@@ -1224,13 +1214,13 @@ impl Sheet {
     unsafe fn rows_as<V: Vector, const MASS: u8, const PER_MAS: bool>(
         &self,
         rows: Range<usize>,
-        b: RowBufs<'_>,
+        b: RowArgs<'_>,
     ) {
         let cols = self.cols;
-        let RowBufs {
+        let RowArgs {
             x,
             xp,
-            ground,
+            below: ground,
             next,
             ms,
             up,
@@ -1340,7 +1330,7 @@ impl Sheet {
 
     /// [`Sheet::rows_as`] compiled for the sheet's vector width, inertia law and per-MAS
     /// inertias (each row's order chosen in the loop).
-    fn rows_for_cpu(&self, rows: Range<usize>, b: RowBufs<'_>) {
+    fn rows_for_cpu(&self, rows: Range<usize>, b: RowArgs<'_>) {
         #[cfg(target_arch = "x86_64")]
         {
             self.debug_check_simd();
@@ -1381,7 +1371,7 @@ impl Sheet {
     unsafe fn rows_avx512<const MASS: u8, const PER_MAS: bool>(
         &self,
         rows: Range<usize>,
-        b: RowBufs<'_>,
+        b: RowArgs<'_>,
     ) {
         self.rows_as::<V8, MASS, PER_MAS>(rows, b)
     }
@@ -1395,7 +1385,7 @@ impl Sheet {
     unsafe fn rows_avx2<const MASS: u8, const PER_MAS: bool>(
         &self,
         rows: Range<usize>,
-        b: RowBufs<'_>,
+        b: RowArgs<'_>,
     ) {
         self.rows_as::<V4, MASS, PER_MAS>(rows, b)
     }
