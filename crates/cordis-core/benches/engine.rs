@@ -1300,7 +1300,7 @@ fn load_average() -> String {
 
 /// `threads [N [T [KIND...]]]`: each model (or those whose name starts with a KIND) stepped on 1
 /// and on T threads (default 2), runs alternating, the medians and their ratio; both renders must
-/// be bit-identical.
+/// be bit-identical. Also the time `Engine::new` took for the first engine.
 fn threads_mode(n: usize, threads: usize, kinds: &[String]) {
     let work = work();
     println!(
@@ -1310,13 +1310,14 @@ fn threads_mode(n: usize, threads: usize, kinds: &[String]) {
         work = work as f64
     );
     println!(
-        "{:<18} {:>8} {:>12} {:>12} {:>7}  {:>8}  check",
+        "{:<18} {:>8} {:>12} {:>12} {:>7}  {:>8}  {:>9}  check",
         "model",
         "steps",
         "1 thread",
         format!("{threads} threads"),
         "ratio",
-        "load"
+        "load",
+        "build ms"
     );
     for model in thread_models(n) {
         if !kinds.is_empty() && !kinds.iter().any(|k| model.name.starts_with(k.as_str())) {
@@ -1324,7 +1325,9 @@ fn threads_mode(n: usize, threads: usize, kinds: &[String]) {
         }
         let steps = (work / model.masses as u64).max(MIN_STEPS);
         let mass_steps = (model.masses as u64 * steps) as f64;
+        let built = Instant::now();
         let mut one = Engine::new(&model.net);
+        let built = built.elapsed().as_secs_f64();
         let mut many = Engine::new(&model.net);
         many.set_threads(threads);
         many.set_parallel_threshold(0); // threads whatever the size: this mode times them
@@ -1345,13 +1348,14 @@ fn threads_mode(n: usize, threads: usize, kinds: &[String]) {
             "DIFFERENT"
         };
         println!(
-            "{:<18} {:>8} {:>12.3e} {:>12.3e} {:>7.2}  {:>8}  {check}",
+            "{:<18} {:>8} {:>12.3e} {:>12.3e} {:>7.2}  {:>8}  {:>9.1}  {check}",
             model.name,
             steps,
             mass_steps / t1,
             mass_steps / tn,
             t1 / tn,
-            load_average()
+            load_average(),
+            built * 1e3
         );
     }
 }

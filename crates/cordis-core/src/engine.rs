@@ -132,7 +132,16 @@ enum Mobiles {
     ByDegree,
     /// In declaration order: a membrane's MAS stay in their rows whatever their degree.
     Declared,
+    /// Near their neighbours: in the order of a breadth-first walk of the links between mobile
+    /// materials, cut into windows of [`WINDOW`] materials of a kind, by degree within a window
+    /// (then in the walk's order). The pull step's storage (see [`local_order`]).
+    Local,
 }
+
+/// Mobile materials of a kind per window of [`Mobiles::Local`]: a few pull-step groups of each
+/// degree, whose neighbours' pairs are near each other in the pair buffer (docs/BENCHMARKS.md,
+/// twenty-fifth session).
+const WINDOW: usize = 256;
 
 /// How [`Kernel::build_with`] joins progressions into loops with exceptions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -1308,8 +1317,24 @@ impl Kernel {
         }
         let mut k = Kernel::choose(net);
         k.simd = simd;
-        if k.compact || k.scattered || k.mostly_indexed() {
-            k.pull = pull::Pull::new(&k).map(Box::new);
+        if (k.compact || k.scattered || k.mostly_indexed()) && pull::Pull::new(&k).is_some() {
+            // stored again with each MAS near its neighbours ([`Mobiles::Local`]), for the
+            // pull step's reads of their pairs; the other steps (observers, replays) take any
+            // storage order. Whether the network is scattered (for the threads' threshold) is
+            // what its declaration order says.
+            let (scattered, compact) = (k.scattered, k.compact);
+            drop(k);
+            // (links in declaration order: their bands matter to the other steps only, and
+            // placing them would take longer than the rest of the build)
+            let mut local = Kernel::build_with(net, true, Joins::Off, Mobiles::Local);
+            if compact {
+                // (as `choose` made it, for observers and replays; the gather step otherwise)
+                local.make_compact(net, Mobiles::Local);
+            }
+            local.simd = simd;
+            local.scattered = scattered;
+            local.pull = pull::Pull::new(&local).map(Box::new);
+            return local;
         }
         k
     }
@@ -1343,11 +1368,11 @@ impl Kernel {
         // recompute)
         if k.link_fix.is_empty() && k.mas_fix.is_empty() {
             let mut k = k;
-            k.make_compact(net);
+            k.make_compact(net, Mobiles::ByDegree);
             k
         } else {
             let mut plain = Kernel::build(net, false, false);
-            if plain.make_compact(net) {
+            if plain.make_compact(net, Mobiles::ByDegree) {
                 plain
             } else {
                 k
@@ -1376,13 +1401,14 @@ impl Kernel {
     }
 
     /// Gives this kernel (built without exceptions) the compact step, stored as it is or rebuilt
-    /// in declaration order, if either fits it; returns whether it did.
-    fn make_compact(&mut self, net: &Network) -> bool {
+    /// with its links in declaration order (its materials as `mobiles` says), if either fits
+    /// it; returns whether it did.
+    fn make_compact(&mut self, net: &Network, mobiles: Mobiles) -> bool {
         assert!(self.link_fix.is_empty() && self.mas_fix.is_empty());
         if !self.in_declaration_order() {
             // (stored in declaration order, a network whose laws alternate falls into many
             // short runs, whose set-up the compact step does not win back)
-            let ordered = Kernel::build(net, true, false);
+            let ordered = Kernel::build_with(net, true, Joins::Off, mobiles);
             if ordered.whole.runs.len() > self.whole.runs.len() {
                 return false;
             }
@@ -1449,11 +1475,13 @@ impl Kernel {
             u32::try_from(nm).is_ok(),
             "too many material modules for one engine"
         );
-        let rank = |m: &Material| match m {
-            Material::Mas { .. } => 0,
-            Material::Cel { .. } => 1,
-            Material::Enx { .. } => 2,
-            Material::Sol { .. } => 3,
+        let rank = |m: &Material| -> u8 {
+            match m {
+                Material::Mas { .. } => 0,
+                Material::Cel { .. } => 1,
+                Material::Enx { .. } => 2,
+                Material::Sol { .. } => 3,
+            }
         };
         // Degree of each material (its link ends): mobile materials are grouped by degree within
         // their kind so that the gather runs in segments of one degree (fixed-length, branch-free
@@ -1469,12 +1497,22 @@ impl Kernel {
             }
         }
         let mut order: Vec<usize> = (0..nm).collect();
-        // stable: declaration order within a kind and degree
-        order.sort_by_key(|&i| {
-            let m = &net.materials[i];
-            let by_degree = m.is_mobile() && mobiles == Mobiles::ByDegree;
-            (rank(m), if by_degree { degree[i] } else { 0 })
-        });
+        if mobiles == Mobiles::Local {
+            // (stable: the other materials in declaration order within a kind)
+            let (window, walk) = local_order(net, rank);
+            order.sort_by_cached_key(|&i| {
+                let m = &net.materials[i];
+                let d = if m.is_mobile() { degree[i] } else { 0 };
+                (rank(m), window[i], d, walk[i])
+            });
+        } else {
+            // stable: declaration order within a kind and degree
+            order.sort_by_key(|&i| {
+                let m = &net.materials[i];
+                let by_degree = m.is_mobile() && mobiles == Mobiles::ByDegree;
+                (rank(m), if by_degree { degree[i] } else { 0 })
+            });
+        }
         let mut slot = vec![0u32; nm];
         for (s, &i) in order.iter().enumerate() {
             slot[i] = s as u32;
@@ -3294,6 +3332,73 @@ fn stretches(
     pieces
 }
 
+/// For [`Mobiles::Local`]: each material's window and its place in the walk (by declaration
+/// index; `0` for the materials that are not mobile, which keep their declaration order).
+///
+/// The walk is breadth-first over the links whose two ends are mobile (a SOL tied to many
+/// materials would make them all neighbours), from each mobile material not yet reached, in
+/// declaration order. Materials of one `kind` are counted off into windows of [`WINDOW`] in the
+/// walk's order. Only the storage order depends on it, and with it no sum: each material's terms
+/// are summed in FORMALISM.md's order whatever its slot.
+fn local_order(net: &Network, kind: impl Fn(&Material) -> u8) -> (Vec<usize>, Vec<usize>) {
+    let nm = net.materials.len();
+    let mobile = |i: usize| net.materials[i].is_mobile();
+    // the links between mobile materials, as lists of neighbours (compressed rows)
+    let pairs = (net.links.iter())
+        .map(|l| (l.a.index(), l.b.index()))
+        .filter(|&(a, b)| a < nm && b < nm && mobile(a) && mobile(b));
+    let mut start = vec![0usize; nm + 1];
+    for (a, b) in pairs.clone() {
+        start[a + 1] += 1;
+        start[b + 1] += 1;
+    }
+    for i in 0..nm {
+        start[i + 1] += start[i];
+    }
+    let mut next = start.clone();
+    let mut near = vec![0usize; start[nm]];
+    for (a, b) in pairs {
+        near[next[a]] = b;
+        next[a] += 1;
+        near[next[b]] = a;
+        next[b] += 1;
+    }
+    let mut walk = vec![0usize; nm];
+    let mut seen = vec![false; nm];
+    let mut queue = std::collections::VecDeque::new();
+    let mut reached = 0;
+    for root in (0..nm).filter(|&i| mobile(i)) {
+        if seen[root] {
+            continue;
+        }
+        seen[root] = true;
+        queue.push_back(root);
+        while let Some(i) = queue.pop_front() {
+            walk[i] = reached;
+            reached += 1;
+            for &j in &near[start[i]..start[i + 1]] {
+                if !seen[j] {
+                    seen[j] = true;
+                    queue.push_back(j);
+                }
+            }
+        }
+    }
+    let mut by_walk: Vec<usize> = (0..nm).filter(|&i| mobile(i)).collect();
+    by_walk.sort_by_key(|&i| (kind(&net.materials[i]), walk[i]));
+    let mut window = vec![0usize; nm];
+    let mut counted = (u8::MAX, 0);
+    for &i in &by_walk {
+        let k = kind(&net.materials[i]);
+        if counted.0 != k {
+            counted = (k, 0);
+        }
+        window[i] = counted.1 / WINDOW;
+        counted.1 += 1;
+    }
+    (window, walk)
+}
+
 /// Most items between two progressions that continue each other that are recomputed one at a
 /// time rather than cutting the loop (see [`bridged`]).
 const GAP_MAX: usize = 2;
@@ -4685,6 +4790,107 @@ mod tests {
                 moved |= a.iter().any(|&v| v != a[0]);
             }
             assert!(moved);
+        }
+    }
+
+    /// A network that takes the pull step is stored with each MAS near its neighbours
+    /// ([`Mobiles::Local`]): a chain of 3,000 MAS declared in a shuffled order (with a CEL, an
+    /// ENX and a SOL on it) has its links' ends about two slots apart, where the degree order of
+    /// the other steps leaves them a thousand apart; each kind keeps its slots, the SOLs their
+    /// declaration order, and the MAS of a window are sorted by degree.
+    #[test]
+    fn the_pull_step_stores_each_mas_near_its_neighbours() {
+        let n = 3000;
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut draw = |below: usize| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 33) % below as u64) as usize
+        };
+        // place `p` of the chain is declared `at[p]`-th
+        let mut at: Vec<usize> = (0..n).collect();
+        for i in (1..n).rev() {
+            at.swap(i, draw(i + 1));
+        }
+        let mut net = Network::new();
+        let grounds = [0.0, 1.0].map(|x0| net.add_material(Material::Sol { x0 }));
+        let mut chain = vec![MatId(0); n];
+        let mut by_decl: Vec<usize> = (0..n).collect();
+        by_decl.sort_by_key(|&p| at[p]);
+        for &p in &by_decl {
+            chain[p] = net.add_material(Material::Mas {
+                m: 1.0,
+                x0: 0.0,
+                v0: if p == n / 3 { 0.01 } else { 0.0 },
+            });
+        }
+        let cel = net.add_material(Material::Cel {
+            m: 1.0,
+            k: 0.01,
+            z: 0.0,
+            x0: 0.0,
+            v0: 0.0,
+            r: 0.0,
+        });
+        let hand = net.add_material(Material::Enx {
+            signal: Signal::Sine {
+                freq: 0.001,
+                amp: 0.01,
+                phase: 0.0,
+            },
+        });
+        let spring = Interaction::Ref { k: 0.1, z: 1e-3 };
+        for &p in &by_decl {
+            if p + 1 < n {
+                net.add_link(spring.clone(), chain[p], chain[p + 1]);
+            }
+        }
+        net.add_link(spring.clone(), grounds[1], chain[0]);
+        net.add_link(spring.clone(), chain[n - 1], grounds[0]);
+        net.add_link(spring.clone(), cel, chain[n / 2]);
+        net.add_link(spring, hand, chain[n / 4]);
+        net.add_position_output(chain[n / 5]);
+
+        let apart = |k: &Kernel| {
+            let d: Vec<usize> = (k.la.iter().zip(&k.lb))
+                .filter(|&(&a, &b)| (a as usize) < k.n_mas && (b as usize) < k.n_mas)
+                .map(|(&a, &b)| a.abs_diff(b) as usize)
+                .collect();
+            assert_eq!(d.len(), n - 1);
+            (
+                d.iter().sum::<usize>() as f64 / d.len() as f64,
+                d.into_iter().max(),
+            )
+        };
+        let local = Kernel::build_with(&net, false, Joins::Rows, Mobiles::Local);
+        let by_degree = Kernel::build_with(&net, false, Joins::Rows, Mobiles::ByDegree);
+        let (mean, max) = apart(&local);
+        assert!(mean < 3.0 && max <= Some(WINDOW), "{mean} {max:?}");
+        assert!(apart(&by_degree).0 > 500.0);
+        for k in [&local, &by_degree] {
+            assert_eq!((k.n_mas, k.n_mc, k.n_mce, k.nm), (n, n + 1, n + 2, n + 4));
+            // the CEL and the ENX after the MAS, the SOLs last, in declaration order
+            let slot = |m: MatId| k.slot[m.index()] as usize;
+            assert_eq!(
+                [cel, hand, grounds[0], grounds[1]].map(slot),
+                [n, n + 1, n + 2, n + 3]
+            );
+        }
+        // within a window, by degree: the MAS tied to the CEL and to the ENX have one link more
+        let deg = |k: &Kernel, s: usize| k.eoff[s + 1] - k.eoff[s];
+        for w in (0..n).step_by(WINDOW) {
+            let slots = w..(w + WINDOW).min(n);
+            assert!(slots
+                .clone()
+                .zip(slots.skip(1))
+                .all(|(a, b)| deg(&local, a) <= deg(&local, b)));
+        }
+        let e = Engine::new(&net);
+        assert_eq!(e.k.pull.is_some(), Simd::detect() != Simd::None);
+        if e.k.pull.is_some() {
+            let slots = |k: &Kernel| chain.iter().map(|m| k.slot[m.index()]).collect::<Vec<_>>();
+            assert_eq!(slots(&e.k), slots(&local));
         }
     }
 

@@ -339,7 +339,8 @@ fn sticking_springs_and_small_curves_match_the_reference() {
 /// Networks of springs and dampers without locality (on an AVX-512 CPU they take the pull step,
 /// where each MAS computes its own links' forces: see engine/pull.rs) equal the reference at
 /// every step, in every position, link force and output, for each way of applying inertias, with
-/// uniform and mixed links, partial groups of eight and blocks of any size.
+/// uniform and mixed links, partial groups of eight, more MAS than a window of the pull step's
+/// storage order, and blocks of any size.
 #[test]
 fn spring_networks_equal_the_reference() {
     for (seed, n) in [(1, 16), (2, 17), (3, 100), (4, 333)] {
@@ -351,6 +352,13 @@ fn spring_networks_equal_the_reference() {
                 assert!(moved > net.outputs.len() / 2, "{what}");
             }
         }
+    }
+    // (more MAS than one window of the pull step's storage order holds)
+    for (inertia, uniform) in [(0, true), (3, false)] {
+        let net = spring_network(5, 700, 4, inertia, uniform);
+        let what = format!("700 MAS, inertia {inertia}, uniform {uniform}");
+        let moved = equals_reference_in_blocks(&net, 600, &what);
+        assert!(moved > net.outputs.len() / 2, "{what}");
     }
 }
 
