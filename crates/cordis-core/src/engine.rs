@@ -4608,21 +4608,8 @@ mod tests {
                 net.add_material(Material::Mas { m, x0: 0.0, v0 })
             })
             .collect();
-        ids.push(net.add_material(Material::Cel {
-            m: 2.0,
-            k: 0.05,
-            z: 1e-3,
-            x0: 0.01,
-            v0: 0.0,
-            r: 0.0,
-        }));
-        let hand = net.add_material(Material::Enx {
-            signal: Signal::Sine {
-                freq: 0.001,
-                amp: 0.01,
-                phase: 0.0,
-            },
-        });
+        let (cel, hand) = cel_and_hand(&mut net);
+        ids.push(cel);
         let ground = net.add_material(Material::Sol { x0: 0.0 });
         let total = ids.len();
         for i in 0..2 * total {
@@ -4646,6 +4633,26 @@ mod tests {
         net.add_position_output(ids[n / 2]);
         net.add_force_output(LinkId(3));
         net
+    }
+
+    /// A CEL (inertia 2, 0.01 from its rest point) and an ENX (a slow sine), in this order.
+    fn cel_and_hand(net: &mut Network) -> (MatId, MatId) {
+        let cel = net.add_material(Material::Cel {
+            m: 2.0,
+            k: 0.05,
+            z: 1e-3,
+            x0: 0.01,
+            v0: 0.0,
+            r: 0.0,
+        });
+        let hand = net.add_material(Material::Enx {
+            signal: Signal::Sine {
+                freq: 0.001,
+                amp: 0.01,
+                phase: 0.0,
+            },
+        });
+        (cel, hand)
     }
 
     /// [`springs`] with every link a REF (of one `K` and `Z`, or each its own) and MAS of one
@@ -4825,21 +4832,7 @@ mod tests {
                 v0: if p == n / 3 { 0.01 } else { 0.0 },
             });
         }
-        let cel = net.add_material(Material::Cel {
-            m: 1.0,
-            k: 0.01,
-            z: 0.0,
-            x0: 0.0,
-            v0: 0.0,
-            r: 0.0,
-        });
-        let hand = net.add_material(Material::Enx {
-            signal: Signal::Sine {
-                freq: 0.001,
-                amp: 0.01,
-                phase: 0.0,
-            },
-        });
+        let (cel, hand) = cel_and_hand(&mut net);
         let spring = Interaction::Ref { k: 0.1, z: 1e-3 };
         for &p in &by_decl {
             if p + 1 < n {
