@@ -1321,7 +1321,7 @@ impl Kernel {
             // stored again with each MAS near its neighbours ([`Mobiles::Local`]), for the
             // pull step's reads of their pairs; the other steps (observers, replays) take any
             // storage order. Whether the network is scattered (for the threads' threshold) is
-            // what its declaration order says.
+            // what the order by degree says.
             let (scattered, compact) = (k.scattered, k.compact);
             drop(k);
             // (links in declaration order: their bands matter to the other steps only, and
@@ -4802,9 +4802,9 @@ mod tests {
 
     /// A network that takes the pull step is stored with each MAS near its neighbours
     /// ([`Mobiles::Local`]): a chain of 3,000 MAS declared in a shuffled order (with a CEL, an
-    /// ENX and a SOL on it) has its links' ends about two slots apart, where the degree order of
-    /// the other steps leaves them a thousand apart; each kind keeps its slots, the SOLs their
-    /// declaration order, and the MAS of a window are sorted by degree.
+    /// ENX and two SOLs on it) has its links' ends under three slots apart on average, where the
+    /// degree order of the other steps leaves them hundreds apart; each kind keeps its slots, the
+    /// SOLs their declaration order, and the MAS of a window are sorted by degree.
     #[test]
     fn the_pull_step_stores_each_mas_near_its_neighbours() {
         let n = 3000;
