@@ -4856,7 +4856,8 @@ mod tests {
                 d.into_iter().max(),
             )
         };
-        let local = Kernel::build_with(&net, false, Joins::Rows, Mobiles::Local);
+        // (as `Kernel::new_for` builds it: links in declaration order)
+        let local = Kernel::build_with(&net, true, Joins::Off, Mobiles::Local);
         let by_degree = Kernel::build_with(&net, false, Joins::Rows, Mobiles::ByDegree);
         let (mean, max) = apart(&local);
         assert!(mean < 3.0 && max <= Some(WINDOW), "{mean} {max:?}");
