@@ -29,6 +29,8 @@
 //!   each struck on its mass N/4, SOX on the middle of the first; no default size;
 //! - `random N`: N masses, each the end 1 of 2 REF links to masses drawn by a seeded LCG (4 links
 //!   per mass on average), one ground tied to mass 0, strike on N/4, SOX on N/2.
+//! - `random-but N`, `random-lnl N`: the same network with every link a BUT of threshold 0 (a
+//!   null-length spring in contact while `x2 - x1 < 0`), or an LNL as the `lnl` string's.
 //!
 //! `threads [N [T [KIND...]]]` times a string of N masses, a membrane of about N masses (316x316
 //! for 100,000), a `pair` of membranes of about N/2 masses each (224x224) and a random network of
@@ -98,7 +100,8 @@ enum Spec {
     /// A membrane laid out as the language's `membrane` generator declares it, with a rim or
     /// without, or struck by a hammer.
     Rimmed(usize, usize, Rim),
-    Random(usize),
+    /// A random network, its links of one law.
+    Random(usize, Law),
     /// `strings S N`: S strings of N masses, each as the language's `string` generator declares
     /// it (its masses, a left ground and its link, the inner links, a right ground and its
     /// link), string `s` of stiffness `K (1 + s / 100)`; a bank of short strings (a harp, a
@@ -110,7 +113,7 @@ const DEFAULT_MODELS: [Spec; 6] = [
     Spec::String(1000, Law::Ref),
     Spec::String(10000, Law::Ref),
     Spec::Membrane(100, 100),
-    Spec::Random(10000),
+    Spec::Random(10000, Law::Ref),
     Spec::String(1000, Law::But),
     Spec::String(1000, Law::Lnl),
 ];
@@ -370,7 +373,13 @@ impl Lcg {
 
 /// N masses; mass i is end 1 of two REF links to other masses drawn at random (so 4 links per mass
 /// on average, scattered over the whole state); one ground tied to mass 0.
-fn random(n: usize) -> Model {
+fn random(n: usize, law: Law) -> Model {
+    // (a BUT of threshold 0: a null-length spring in contact while `x2 - x1 < 0`, about half the
+    // time; the strings' threshold would leave every mass of a random network pushed one way)
+    let interaction = match law {
+        Law::But => Interaction::But { k: K, z: Z, s: 0.0 },
+        law => law.interaction(),
+    };
     let mut net = Network::new();
     let masses: Vec<MatId> = (0..n)
         .map(|i| mass(&mut net, if i == n / 4 { V0 } else { 0.0 }))
@@ -381,13 +390,17 @@ fn random(n: usize) -> Model {
     for (i, &a) in masses.iter().enumerate() {
         for _ in 0..2 {
             let j = (i + 1 + rng.below(n - 1)) % n; // any mass but i
-            net.add_link(Law::Ref.interaction(), a, masses[j]);
+            net.add_link(interaction.clone(), a, masses[j]);
         }
     }
     let out = masses[n / 2];
     net.add_position_output(out);
     Model {
-        name: format!("random_N{n}"),
+        name: match law {
+            Law::Ref => format!("random_N{n}"),
+            Law::But => format!("random_but_N{n}"),
+            Law::Lnl => format!("random_lnl_N{n}"),
+        },
         net,
         masses: n,
         out,
@@ -399,7 +412,7 @@ fn build(spec: &Spec) -> Model {
         Spec::String(n, law) => string(n, law),
         Spec::Membrane(r, c) => membrane(r, c, None),
         Spec::Rimmed(r, c, rim) => membrane(r, c, Some(rim)),
-        Spec::Random(n) => random(n),
+        Spec::Random(n, law) => random(n, law),
         Spec::Strings(s, n) => strings(s, n),
     }
 }
@@ -969,7 +982,7 @@ fn exchange_on(reads: &Reads, masses: usize, steps: u64, threads: usize) -> Opti
 /// cordis on 1 and T threads.
 fn floor_threads_mode(n: usize, threads: usize) {
     let work = work();
-    let model = random(n);
+    let model = random(n, Law::Ref);
     let steps = (work / model.masses as u64).max(MIN_STEPS);
     let mass_steps = (model.masses as u64 * steps) as f64;
     let reads = Reads::new(&model.net);
@@ -1191,7 +1204,7 @@ fn usage() -> ! {
     eprintln!(
         "usage: cargo bench -p cordis-core --bench engine -- [string [N]] [but [N]] [lnl [N]] \
          [membrane [R C | RxC]] [rimmed|free|struck|pair|graded R C | RxC] [strings S N | SxN] \
-         [random [N]]...\n(no model: every default model)\n   \
+         [random [N]] [random-but [N]] [random-lnl [N]]...\n(no model: every default model)\n   \
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
          threads, default N = 100000 masses, T = 2)\n   \
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
@@ -1213,8 +1226,13 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "but" => Some(Law::But),
             "lnl" => Some(Law::Lnl),
             "membrane" | "rimmed" | "free" | "struck" | "pair" | "graded" | "random"
-            | "strings" => None,
+            | "random-but" | "random-lnl" | "strings" => None,
             _ => usage(),
+        };
+        let random_law = match kind {
+            "random-but" => Law::But,
+            "random-lnl" => Law::Lnl,
+            _ => Law::Ref,
         };
         let first = args.get(i).map(String::as_str);
         let explicit = match (kind, first) {
@@ -1248,16 +1266,17 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
                 i += 1;
                 match law {
                     Some(law) => Spec::String(n, law),
-                    None => Spec::Random(n),
+                    None => Spec::Random(n, random_law),
                 }
             }),
             (_, None) => None,
         };
         match explicit {
-            Some(Spec::String(n, _) | Spec::Random(n)) if n < 2 => usage(),
+            Some(Spec::String(n, _) | Spec::Random(n, _)) if n < 2 => usage(),
             Some(Spec::Membrane(r, c) | Spec::Rimmed(r, c, _)) if r < 3 || c < 3 => usage(), // the strike is at (2,2)
             Some(Spec::Strings(_, n)) if n < 2 => usage(),
             Some(spec) => specs.push(spec),
+            None if random_law != Law::Ref => specs.push(Spec::Random(10000, random_law)),
             None => specs.extend(
                 DEFAULT_MODELS
                     .iter()
@@ -1265,7 +1284,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
                         (Spec::String(_, l), _) => Some(*l) == law,
                         (Spec::Membrane(..), k) => k == "membrane",
                         (Spec::Rimmed(..), _) => false,
-                        (Spec::Random(_), k) => k == "random",
+                        (Spec::Random(..), k) => k == "random",
                         (Spec::Strings(..), _) => false,
                     })
                     .cloned(),
@@ -1286,7 +1305,7 @@ fn thread_models(n: usize) -> Vec<Model> {
         string(n, Law::Ref),
         membrane(side(n), side(n), None),
         membrane(side(n / 2), side(n / 2), Some(Rim::Pair)),
-        random(n),
+        random(n, Law::Ref),
     ]
 }
 

@@ -4741,22 +4741,64 @@ mod tests {
         }
     }
 
-    /// Networks of springs and dampers take the pull step on an AVX-512 CPU (and only there, and
-    /// only when every link is a RES, FRO or REF), and it gives the bits of the compact or gather
-    /// step at every step: positions, outputs, and the link forces `link_force` reads after each block,
-    /// whether `process` and `process_observed` take turns on one engine or not.
+    /// Networks of springs and dampers, and of BUTs among them, take the pull step on an
+    /// AVX-512 CPU (and only there, and only when every link is a RES, FRO, REF or BUT), and it
+    /// gives the bits of the compact or gather step at every step: positions, outputs, and the
+    /// link forces `link_force` reads after each block, whether `process` and `process_observed`
+    /// take turns on one engine or not. The BUTs come into and out of contact, with the MAS and
+    /// the CEL at either end.
     #[test]
     fn the_pull_step_gives_the_other_steps_bits() {
         let avx512 = Avx512::detect().is_some();
-        let but = Interaction::But {
+        // refused: a BUT and an LNL together, two pairs of curves, a curve with a jump first
+        let mut both = lnl_springs(1, 40, false);
+        both.links[6].law = Interaction::But {
             k: 0.01,
             z: 0.0,
             s: 0.0,
         };
-        assert!(Engine::new(&springs(1, 40, Some(but))).k.pull.is_none());
+        let mut two = lnl_springs(1, 40, false);
+        two.links[5].law = Interaction::Lnl {
+            lk: Curve::new(&[(-1.0, -0.01), (1.0, 0.01)]).unwrap(),
+            lz: Curve::new(&[(-1.0, 0.0), (1.0, 0.0)]).unwrap(),
+        };
+        let mut jump = springs(1, 40, None);
+        jump.links[5].law = Interaction::Lnl {
+            lk: Curve::new(&[(0.0, -0.01), (0.0, 0.01), (1.0, 0.02)]).unwrap(),
+            lz: Curve::new(&[]).unwrap(),
+        };
+        for net in [both, two, jump] {
+            assert!(Engine::new(&net).k.pull.is_none());
+        }
         assert!(Engine::new(&springs(1, 8, None)).k.pull.is_none()); // (fewer than PULL_MIN MAS)
-        for (seed, n) in [(1, 16), (2, 40), (3, 123), (4, 500)] {
-            let net = springs(seed, n, None);
+        let mut toggled = 0;
+        for (seed, n, kind) in [
+            (1, 16, 0),
+            (2, 40, 0),
+            (3, 123, 0),
+            (4, 500, 0),
+            (5, 16, 1),
+            (6, 40, 1),
+            (7, 123, 1),
+            (8, 500, 1),
+            (9, 16, 2),
+            (10, 123, 2),
+            (11, 500, 2),
+            (12, 17, 3),
+            (13, 123, 3),
+            (14, 500, 3),
+        ] {
+            let net = match kind {
+                0 => springs(seed, n, None),
+                1 => but_springs(seed, n),
+                _ => lnl_springs(seed, n, kind == 3),
+            };
+            let but_links: Vec<LinkId> = (0..net.links.len() as u32)
+                .map(LinkId)
+                .filter(|l| matches!(net.links[l.index()].law, Interaction::But { .. }))
+                .collect();
+            // (whether each BUT's force has been zero, and non-zero, after a block)
+            let mut seen = vec![[false; 2]; but_links.len()];
             let mut pulled = Engine::new(&net);
             assert_eq!(pulled.k.pull.is_some(), avx512, "network {seed}");
             let mut compact = pulled.clone();
@@ -4794,10 +4836,48 @@ mod tests {
                         assert_eq!(e.link_force(l).to_bits(), compact.link_force(l).to_bits());
                     }
                 }
+                for (s, &l) in seen.iter_mut().zip(&but_links) {
+                    s[usize::from(compact.link_force(l) != 0.0)] = true;
+                }
                 moved |= a.iter().any(|&v| v != a[0]);
             }
             assert!(moved);
+            toggled += seen.iter().filter(|s| s[0] && s[1]).count();
         }
+        assert!(toggled >= 10, "{toggled} BUTs came into and out of contact");
+    }
+
+    /// [`springs`] with LNL links of one pair of curves, neither odd, the viscous one not zero
+    /// at zero: every fourth link (MAS to MAS, some to the CEL), a MAS's link to the SOL and
+    /// the ENX's link; or (`all`) every link.
+    fn lnl_springs(seed: u64, n: usize, all: bool) -> Network {
+        let mut net = springs(seed, n, None);
+        let lnl = Interaction::Lnl {
+            lk: Curve::new(&[(-0.01, -8e-4), (0.0, 0.0), (0.004, 1e-4), (0.02, 3e-3)]).unwrap(),
+            lz: Curve::new(&[(-0.002, -4e-6), (0.001, 1e-6), (0.003, 0.0)]).unwrap(),
+        };
+        let count = net.links.len();
+        for (i, link) in net.links.iter_mut().enumerate() {
+            if all || i % 4 == 1 || i == count - 2 || i == count - 1 {
+                link.law = lnl.clone();
+            }
+        }
+        net
+    }
+
+    /// [`springs`] with BUTs: every fourth link (MAS to MAS, some to the CEL, thresholds of both
+    /// signs and zero, one in three viscous only), a MAS's link to the SOL and the ENX's link.
+    fn but_springs(seed: u64, n: usize) -> Network {
+        let mut net = springs(seed, n, None);
+        let count = net.links.len();
+        for (i, link) in net.links.iter_mut().enumerate() {
+            if i % 4 == 1 || i == count - 2 || i == count - 1 {
+                let s = [0.0, 0.004, -0.004, 0.01, -0.01][i % 5];
+                let k = if i % 3 == 0 { 0.0 } else { 0.04 };
+                link.law = Interaction::But { k, z: 1e-3, s };
+            }
+        }
+        net
     }
 
     /// A network that takes the pull step is stored with each MAS near its neighbours

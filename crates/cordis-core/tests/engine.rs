@@ -339,8 +339,10 @@ fn sticking_springs_and_small_curves_match_the_reference() {
 /// Networks of springs and dampers without locality (on an AVX-512 CPU they take the pull step,
 /// where each MAS computes its own links' forces: see engine/pull.rs) equal the reference at
 /// every step, in every position, link force and output, for each way of applying inertias, with
-/// uniform and mixed links, partial groups of eight, more MAS than a window of the pull step's
-/// storage order, and blocks of any size.
+/// uniform and mixed links, BUT links among them (coming into and out of contact), LNL links
+/// among them or alone, partial
+/// groups of eight, more MAS than a window of the pull step's storage order, and blocks of any
+/// size.
 #[test]
 fn spring_networks_equal_the_reference() {
     for (seed, n) in [(1, 16), (2, 17), (3, 100), (4, 333)] {
@@ -358,6 +360,30 @@ fn spring_networks_equal_the_reference() {
         let net = spring_network(5, 700, 4, inertia, uniform);
         let what = format!("700 MAS, inertia {inertia}, uniform {uniform}");
         let moved = equals_reference_in_blocks(&net, 600, &what);
+        assert!(moved > net.outputs.len() / 2, "{what}");
+    }
+    // with BUT links among them (the pull step takes them too), in and out of contact
+    for (seed, n, inertia) in [(6, 16), (7, 17), (8, 100), (9, 333), (10, 700)]
+        .into_iter()
+        .zip(0..)
+        .map(|((seed, n), i)| (seed, n, i % 4))
+    {
+        let net = but_network(seed, n, inertia);
+        let what = format!("BUT, seed {seed}, {n} MAS, inertia {inertia}");
+        let moved = equals_reference_in_blocks(&net, 1500, &what);
+        assert!(moved > net.outputs.len() / 2, "{what}");
+    }
+    // with LNL links of one pair of curves, among the others or alone
+    for (seed, n, inertia, all) in [
+        (11, 16, 0, false),
+        (12, 17, 1, true),
+        (13, 100, 2, false),
+        (14, 333, 3, true),
+        (15, 700, 0, false),
+    ] {
+        let net = lnl_network(seed, n, inertia, all);
+        let what = format!("LNL, seed {seed}, {n} MAS, inertia {inertia}, all {all}");
+        let moved = equals_reference_in_blocks(&net, 1500, &what);
         assert!(moved > net.outputs.len() / 2, "{what}");
     }
 }

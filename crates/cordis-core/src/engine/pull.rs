@@ -30,9 +30,16 @@
 //! `F - (+0.0) = F`. So every `F(n)`, then every `x(n+1)` (the update's expressions as in
 //! `engine.rs`), has the reference's bits; `tests/engine.rs` checks them step by step.
 //!
-//! Only RES, FRO and REF are pulled (their force is odd in the ends' order); a network with a
-//! BUT or an LNL keeps the other steps. The loads and shuffles are AVX-512 (the CPU's proof is an
-//! [`Avx512`] token). A CPU with AVX2 but not AVX-512 takes the same rows four lanes at a time
+//! RES, FRO and REF forces are odd in the ends' order. BUT and LNL forces are not (a BUT is
+//! oriented, an LNL's curves need not be odd), so a lane whose MAS is end 2 of such a link
+//! computes it from the reference's operands, negated exactly, and negates the force: BUT terms
+//! in [`sum_but`] (with the threshold's sign turned, and the contact test read from the sign of
+//! `d + S`), LNL terms in [`sum_lnl`] (the network's one pair of curves, eight at a time as the
+//! grid step evaluates them); each function proves its bits. The kind of terms a network has
+//! ([`Terms`]: springs and dampers, with BUTs, or with LNLs) chooses the sum once per step; a
+//! network with both BUT and LNL links, or LNL links of several curves or of curves that do not
+//! evaluate eight at a time, keeps the other steps. The loads and shuffles are AVX-512 (the CPU's
+//! proof is an [`Avx512`] token). A CPU with AVX2 but not AVX-512 takes the same rows four lanes at a time
 //! ([`avx2`]), on networks of REF links only; without either the network keeps the compact or
 //! gather step.
 //!
@@ -49,8 +56,12 @@ use std::ops::Range;
 
 use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
 
-use super::{Claim, Kernel, Law, MasLaw, Roles, Run, Simd, State, NEG};
+use super::{Claim, ExactPair, Kernel, Law, Lnl, MasLaw, PairFn, Roles, Run, Simd, State, NEG};
+#[cfg(target_arch = "x86_64")]
+use crate::curve::{ExactCurve, WideCurve};
 use crate::lanes::Avx512;
+#[cfg(target_arch = "x86_64")]
+use crate::wide::V8;
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
@@ -88,6 +99,10 @@ struct Row {
     /// The lanes whose term has a spring (`K d`), a damper (`Z v`).
     k: u8,
     z: u8,
+    /// The lanes whose term is a BUT, and those of them where the lane's MAS is the link's end 2
+    /// (see [`sum_but`]).
+    b: u8,
+    flip: u8,
 }
 
 /// A piece of the work of a step: the MAS of `groups`, and the CEL and ENX when `slots` (the
@@ -103,11 +118,18 @@ pub(super) struct Share {
 enum CelTerm {
     /// `g` from the CEL's side: the other end (storage slot), the law, `K`, `Z`
     Link(u32, Law, f64, f64),
+    /// A BUT's `g` from the CEL's side: the other end, `K`, `Z`, the threshold `S` (negated where
+    /// the CEL is end 2), and whether it is end 2
+    But(u32, f64, f64, f64, bool),
+    /// An LNL's `g` from the CEL's side (the network's curves): the other end, and whether the
+    /// CEL is end 2
+    Lnl(u32, bool),
     /// ENF input `i` (its sample is added)
     Input(u32),
 }
 
-/// The pull step of a network of RES, FRO and REF links (see the module documentation).
+/// The pull step of a network of RES, FRO, REF links and BUT or LNL ones (see the module
+/// documentation).
 #[derive(Clone, Debug)]
 pub(super) struct Pull {
     isa: Isa,
@@ -117,6 +139,13 @@ pub(super) struct Pull {
     rows: Vec<Row>,
     /// `K` and `Z` of each row's lanes, or a single row when every term has the same.
     params: Vec<[[f64; LANES]; 2]>,
+    /// The `S` of each row's BUT lanes, negated where the lane's MAS is end 2 (`0.0` in the
+    /// other lanes), when the network has a BUT; else empty.
+    thresholds: Vec<[f64; LANES]>,
+    /// The curves of every LNL link, when the network has LNL links (all of one pair of curves
+    /// that evaluate eight at a time); and whether it has other links too.
+    curves: Option<ExactPair>,
+    mixed: bool,
     /// ENF inputs of group `g`: `enf[enf_bounds[g]..enf_bounds[g + 1]]`, `(lane, input)` in the
     /// order they are summed.
     enf_bounds: Vec<u32>,
@@ -129,9 +158,10 @@ pub(super) struct Pull {
 }
 
 impl Pull {
-    /// The pull step of `k`, if it can take one: the kernel is compiled for AVX-512 and every
-    /// link is a RES, FRO or REF, or for AVX2 and every link is a REF ([`avx2`]); and there are at
-    /// least [`PULL_MIN`] MAS.
+    /// The pull step of `k`, if it can take one: the kernel is compiled for AVX-512, and the
+    /// network has no BUT and LNL links together, and every LNL link has the same curves, which
+    /// evaluate eight at a time ([`ExactCurve::widens`]); or it is compiled for AVX2 and every
+    /// link is a REF ([`avx2`]); and there are at least [`PULL_MIN`] MAS.
     pub(super) fn new(k: &Kernel) -> Option<Pull> {
         let isa = match k.simd {
             #[cfg(target_arch = "x86_64")]
@@ -146,7 +176,7 @@ impl Pull {
         let mut law = vec![Law::Ref; k.nl];
         for run in &k.whole.runs {
             let pulled = match isa {
-                Isa::Avx512(_) => matches!(run.law, Law::Res | Law::Fro | Law::Ref),
+                Isa::Avx512(_) => true,
                 Isa::Avx2 => run.law == Law::Ref,
             };
             if !pulled {
@@ -154,8 +184,24 @@ impl Pull {
             }
             law[run.start..run.end].fill(run.law);
         }
-        let has_k = |l: Law| l != Law::Fro;
-        let has_z = |l: Law| l != Law::Res;
+        let has_k = |l: Law| matches!(l, Law::Res | Law::Ref | Law::But);
+        let has_z = |l: Law| matches!(l, Law::Fro | Law::Ref | Law::But);
+        // (one pair of curves for every LNL link, which evaluates eight at a time; not with a
+        // BUT: a group's sum computes one kind of nonlinear term)
+        if law.contains(&Law::But) && law.contains(&Law::Lnl) {
+            return None;
+        }
+        let mut curves: Option<ExactPair> = None;
+        for l in (0..k.nl).filter(|&l| law[l] == Law::Lnl) {
+            match &k.lnl[k.lnl_of[l] as usize] {
+                Lnl::Exact(pair) if pair.widens() => match &curves {
+                    Some(first) if !first.same_bits(pair) => return None,
+                    Some(_) => {}
+                    None => curves = Some(*pair),
+                },
+                _ => return None,
+            }
+        }
         // The terms of mobile material `s`, in summing order: `Ok((other end, link))`, then
         // `Err(input)`.
         let terms = |s: usize| {
@@ -173,6 +219,9 @@ impl Pull {
         };
         let kz = |l: usize| (k.lk[l].to_bits(), k.lz[l].to_bits());
         let uniform = (0..k.nl).all(|l| kz(l) == kz(0));
+        let but = law.contains(&Law::But);
+        // (the threshold from the lane's side: `S` where its MAS is end 1, `-S` where end 2)
+        let threshold = |l: usize, end1: bool| if end1 { k.ls[l] } else { -k.ls[l] };
 
         let mut p = Pull {
             isa,
@@ -181,6 +230,9 @@ impl Pull {
             params: Vec::new(),
             enf_bounds: vec![0],
             enf: Vec::new(),
+            thresholds: Vec::new(),
+            curves,
+            mixed: law.iter().any(|&l| l != Law::Lnl),
             cel_off: vec![0],
             cel_terms: Vec::new(),
             recorded: Vec::new(),
@@ -194,14 +246,23 @@ impl Pull {
                 .clone()
                 .map(|s| terms(s).filter_map(Result::ok).collect())
                 .collect();
+            // (whether the lane's MAS is end 1 of its `r`-th link)
+            let end1 = |s: usize, r: usize| {
+                let edges = &k.eidx[k.eoff[s] as usize..k.eoff[s + 1] as usize];
+                let mut links = edges.iter().filter(|&&e| ((e & !NEG) as usize) < k.nl);
+                links.nth(r).is_some_and(|&e| e & NEG != 0)
+            };
             let depth = links.iter().map(Vec::len).max().unwrap_or(0);
             for r in 0..depth {
                 let mut row = Row {
                     at: [0; LANES],
                     k: 0,
                     z: 0,
+                    b: 0,
+                    flip: 0,
                 };
                 let mut params = [[0.0; LANES]; 2];
+                let mut thresholds = [0.0; LANES];
                 for (i, s) in lanes.clone().enumerate() {
                     let mut other = s as u32; // padding: the lane's own MAS, masked off
                     if let Some(&(o, l)) = links[i].get(r) {
@@ -210,6 +271,15 @@ impl Pull {
                         row.z |= u8::from(has_z(law[l])) << i;
                         params[0][i] = k.lk[l];
                         params[1][i] = k.lz[l];
+                        if law[l] == Law::But {
+                            let end1 = end1(s, r);
+                            row.b |= 1 << i;
+                            row.flip |= u8::from(!end1) << i;
+                            thresholds[i] = threshold(l, end1);
+                        } else if law[l] == Law::Lnl {
+                            row.b |= 1 << i;
+                            row.flip |= u8::from(!end1(s, r)) << i;
+                        }
                     }
                     assert!((other as usize) < k.nm);
                     row.at[i] = 16 * other;
@@ -217,6 +287,9 @@ impl Pull {
                 p.rows.push(row);
                 if !uniform {
                     p.params.push(params);
+                }
+                if but {
+                    p.thresholds.push(thresholds);
                 }
             }
             p.bounds.push(p.rows.len() as u32);
@@ -227,15 +300,22 @@ impl Pull {
             p.enf_bounds.push(p.enf.len() as u32);
         }
         for s in k.n_mas..k.n_mc {
-            p.cel_terms.extend(terms(s).map(|t| match t {
-                Ok((other, l)) => CelTerm::Link(other, law[l], k.lk[l], k.lz[l]),
-                Err(e) => CelTerm::Input(e),
-            }));
+            let edges = &k.eidx[k.eoff[s] as usize..k.eoff[s + 1] as usize];
+            p.cel_terms
+                .extend(terms(s).zip(edges).map(|(t, &e)| match t {
+                    Ok((other, l)) if law[l] == Law::But => {
+                        let end1 = e & NEG != 0;
+                        CelTerm::But(other, k.lk[l], k.lz[l], threshold(l, end1), !end1)
+                    }
+                    Ok((other, l)) if law[l] == Law::Lnl => CelTerm::Lnl(other, e & NEG == 0),
+                    Ok((other, l)) => CelTerm::Link(other, law[l], k.lk[l], k.lz[l]),
+                    Err(e) => CelTerm::Input(e),
+                }));
             p.cel_off.push(p.cel_terms.len() as u32);
         }
         p.recorded = k.recorded_links()?;
         assert!(p.cel_terms.iter().all(|t| match *t {
-            CelTerm::Link(j, ..) => (j as usize) < k.nm,
+            CelTerm::Link(j, ..) | CelTerm::But(j, ..) | CelTerm::Lnl(j, _) => (j as usize) < k.nm,
             CelTerm::Input(i) => (i as usize) < k.enf.len(),
         }));
         assert!(p.enf.iter().all(|&(_, i)| (i as usize) < k.enf.len()));
@@ -442,6 +522,26 @@ impl Pull {
                             _ => kk * (x - xj) + zz * (v - vj),
                         };
                     }
+                    CelTerm::But(j, kk, zz, s, end2) => {
+                        let [xj, vj] = pc[j as usize];
+                        let t = (x - xj) + s;
+                        let contact = if end2 { t < 0.0 } else { t > 0.0 };
+                        if contact {
+                            f -= kk * t + zz * (v - vj);
+                        }
+                    }
+                    CelTerm::Lnl(j, end2) => {
+                        let [xj, vj] = pc[j as usize];
+                        let curves = self.curves.as_ref().expect("an LNL term has curves");
+                        // (the reference's `d` and `v` and force, negated from end 2: see
+                        // `sum_lnl`)
+                        let (d, dv) = (x - xj, v - vj);
+                        f -= if end2 {
+                            -curves.force(-d, -dv)
+                        } else {
+                            curves.force(d, dv)
+                        };
+                    }
                     CelTerm::Input(i) => f += k.enf[i as usize].at(n),
                 }
             }
@@ -475,16 +575,53 @@ impl Pull {
         next: &mut [f64],
         pn: &mut [[f64; 2]],
     ) {
+        match &self.curves {
+            Some(pair) => pair.visit(WithCurves {
+                pull: self,
+                k,
+                n,
+                gr,
+                prev,
+                pc,
+                params: &params,
+                next,
+                pn,
+            }),
+            None if !self.thresholds.is_empty() => {
+                self.groups_with(Buts, k, n, gr, prev, pc, &params, next, pn)
+            }
+            None => self.groups_with(Springs, k, n, gr, prev, pc, &params, next, pn),
+        }
+    }
+
+    /// [`Pull::groups`] with the group sums of `terms`, a function of its own for each kind of
+    /// terms (with all three inlined into `groups`, the BUT network ran 4 % slower).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    #[allow(clippy::too_many_arguments)] // the step's buffers
+    #[inline(never)]
+    fn groups_with<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, T: Terms>(
+        &self,
+        terms: T,
+        k: &Kernel,
+        n: u64,
+        gr: Range<usize>,
+        prev: &[f64],
+        pc: &[[f64; 2]],
+        params: &impl Fn(Range<usize>) -> I,
+        next: &mut [f64],
+        pn: &mut [[f64; 2]],
+    ) {
         // (`groups_as` checks each piece against its buffers)
         let ([whole, part], (next, next_part), (pn, pn_part)) = split_whole(k, gr, next, pn);
         let none: &[f64] = &[];
         macro_rules! both {
             ($div:literal, $per:literal, $m:expr, $ms:expr) => {{
-                self.groups_as::<_, $div, $per, true>(
-                    k, n, whole, prev, pc, &params, $m, $ms, next, pn,
+                self.groups_as::<_, _, $div, $per, true>(
+                    terms, k, n, whole, prev, pc, params, $m, $ms, next, pn,
                 );
-                self.groups_as::<_, $div, $per, false>(
-                    k, n, part, prev, pc, &params, $m, $ms, next_part, pn_part,
+                self.groups_as::<_, _, $div, $per, false>(
+                    terms, k, n, part, prev, pc, params, $m, $ms, next_part, pn_part,
                 );
             }};
         }
@@ -506,11 +643,13 @@ impl Pull {
     fn groups_as<
         'p,
         I: Iterator<Item = &'p [[f64; LANES]; 2]>,
+        T: Terms,
         const DIV: bool,
         const PER_MAS: bool,
         const WHOLE: bool,
     >(
         &self,
+        terms: T,
         k: &Kernel,
         n: u64,
         gr: Range<usize>,
@@ -580,9 +719,10 @@ impl Pull {
             };
             let rows = rows[0] as usize..rows[1] as usize;
             // SAFETY: every row's offsets are those of pairs `< nm` (asserted in `new`), and `pc`
-            // has `nm` pairs (asserted in `step`).
+            // has `nm` pairs (asserted in `step`); the CPU has AVX-512F, and this function is
+            // compiled with it.
             let mut f =
-                unsafe { sum(&self.rows[rows.clone()], params(rows), base, x, v, (xs, vs)) };
+                unsafe { terms.sum(self, rows.clone(), params(rows), base, x, v, (xs, vs)) };
             let inputs = &self.enf[inputs[0] as usize..inputs[1] as usize];
             if !inputs.is_empty() {
                 let mut lanes_f = [0.0; LANES];
@@ -645,6 +785,206 @@ impl Pull {
     }
 }
 
+/// The kind of terms a network's rows have, and how a group sums them: [`Springs`], [`Buts`]
+/// or [`Curves`], chosen once per step ([`Pull::groups`]).
+#[cfg(target_arch = "x86_64")]
+trait Terms: Copy {
+    /// `F(n)` of the eight lanes of a group: from `+0.0`, `F - g` for each of its rows `rows`
+    /// (see [`sum`]).
+    ///
+    /// # Safety
+    /// The CPU has AVX-512F and the calling function is compiled with it; every offset of the
+    /// rows is that of a pair within the buffer at `base`.
+    #[allow(clippy::too_many_arguments)] // (the operands of `sum`)
+    unsafe fn sum<'p>(
+        self,
+        pull: &Pull,
+        rows: Range<usize>,
+        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+        base: *const u8,
+        x: __m512d,
+        v: __m512d,
+        perm: (__m512i, __m512i),
+    ) -> __m512d;
+}
+
+/// RES, FRO and REF terms ([`sum`]).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+struct Springs;
+
+/// RES, FRO, REF and BUT terms ([`sum_but`]).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+struct Buts;
+
+/// LNL terms of one pair of curves of `A` and `B` points, and RES, FRO and REF terms when
+/// `mixed` ([`sum_lnl`]).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+struct Curves<const A: usize, const B: usize> {
+    k: WideCurve<V8, A>,
+    z: WideCurve<V8, B>,
+    mixed: bool,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Terms for Springs {
+    #[inline(always)]
+    unsafe fn sum<'p>(
+        self,
+        pull: &Pull,
+        rows: Range<usize>,
+        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+        base: *const u8,
+        x: __m512d,
+        v: __m512d,
+        perm: (__m512i, __m512i),
+    ) -> __m512d {
+        // SAFETY: the caller's promise.
+        unsafe { sum(&pull.rows[rows], params, base, x, v, perm) }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Terms for Buts {
+    #[inline(always)]
+    unsafe fn sum<'p>(
+        self,
+        pull: &Pull,
+        rows: Range<usize>,
+        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+        base: *const u8,
+        x: __m512d,
+        v: __m512d,
+        perm: (__m512i, __m512i),
+    ) -> __m512d {
+        let ts = &pull.thresholds[rows.clone()];
+        // SAFETY: the caller's promise; `ts` has a row of thresholds for each row (`new`).
+        unsafe { sum_but(&pull.rows[rows], params, ts, base, x, v, perm) }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl<const A: usize, const B: usize> Terms for Curves<A, B> {
+    #[inline(always)]
+    unsafe fn sum<'p>(
+        self,
+        pull: &Pull,
+        rows: Range<usize>,
+        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+        base: *const u8,
+        x: __m512d,
+        v: __m512d,
+        perm: (__m512i, __m512i),
+    ) -> __m512d {
+        // SAFETY: the caller's promise.
+        unsafe { sum_lnl(&pull.rows[rows], params, &self, base, x, v, perm) }
+    }
+}
+
+/// [`Pull::groups`] for a network of LNL links: [`Pull::groups_with`] with [`Curves`] of the
+/// network's point counts.
+#[cfg(target_arch = "x86_64")]
+struct WithCurves<'a, 'b, P> {
+    pull: &'a Pull,
+    k: &'a Kernel,
+    n: u64,
+    gr: Range<usize>,
+    prev: &'a [f64],
+    pc: &'a [[f64; 2]],
+    params: &'a P,
+    next: &'b mut [f64],
+    pn: &'b mut [[f64; 2]],
+}
+
+#[cfg(target_arch = "x86_64")]
+impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> PairFn
+    for WithCurves<'_, '_, P>
+{
+    type Out = ();
+
+    fn call<const A: usize, const B: usize>(self, k: ExactCurve<A>, z: ExactCurve<B>) {
+        let w = self;
+        assert!(matches!(w.pull.isa, Isa::Avx512(_)));
+        // SAFETY: a pull step has `Isa::Avx512` only with the token, the CPU's proof of
+        // AVX-512F, which `V8` and `groups_with` need.
+        unsafe {
+            let curves = Curves {
+                k: k.wide::<V8>(),
+                z: z.wide::<V8>(),
+                mixed: w.pull.mixed,
+            };
+            let (gr, prev, pc, params) = (w.gr, w.prev, w.pc, w.params);
+            w.pull
+                .groups_with(curves, w.k, w.n, gr, prev, pc, params, w.next, w.pn);
+        }
+    }
+}
+
+/// [`sum`] for rows whose lanes `row.b` have LNL terms of the curves `c` (every lane but
+/// padding when not `c.mixed`), those of `row.flip` where the lane's MAS is the link's end 2.
+///
+/// FORMALISM.md's LNL force is `f = LK(x1 - x2) + LZ(v)` (`ExactPair::force`, whose bits
+/// `WideCurve::eval` gives lane by lane). From end 1's side `d = x - xj` and `v - vj` are the
+/// reference's operands, `g = f`, and `F - g = F + (-f)`. From end 2's side they are the
+/// reference's negated (`a - b = -(b - a)` exactly), so the lane negates them (its sign bit
+/// flipped, exact), evaluates the curves on the reference's operands, and negates the force: `g
+/// = -f`, and `F - g = F + f`. The other lanes of a mixed row are [`sum`]'s terms, and a padding
+/// lane's `g` is `+0.0` (its curves' value at zero is not used).
+///
+/// # Safety
+/// As [`sum`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+unsafe fn sum_lnl<'p, const A: usize, const B: usize>(
+    rows: &[Row],
+    params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+    c: &Curves<A, B>,
+    base: *const u8,
+    x: __m512d,
+    v: __m512d,
+    (xs, vs): (__m512i, __m512i),
+) -> __m512d {
+    let sign = _mm512_set1_epi64(i64::MIN);
+    // (`a` with its sign flipped in lanes `m`)
+    let flip = |m: u8, a: __m512d| {
+        _mm512_castsi512_pd(_mm512_mask_xor_epi64(
+            _mm512_castpd_si512(a),
+            m,
+            _mm512_castpd_si512(a),
+            sign,
+        ))
+    };
+    let mut f = _mm512_setzero_pd();
+    for (row, [kr, zr]) in rows.iter().zip(params) {
+        // SAFETY: the caller's promise.
+        let (xj, vj) = unsafe { pairs(base, &row.at, xs, vs) };
+        let d = _mm512_sub_pd(x, xj);
+        let dv = _mm512_sub_pd(v, vj);
+        // SAFETY: the CPU has AVX-512F, and this function is compiled with it (`V8`).
+        let lnl = unsafe {
+            let (fk, fz) = (
+                c.k.eval(V8(flip(row.flip, d))),
+                c.z.eval(V8(flip(row.flip, dv))),
+            );
+            flip(row.flip, _mm512_add_pd(fk.0, fz.0))
+        };
+        let g = if c.mixed {
+            // SAFETY: eight `f64` each.
+            let (kk, zz) = unsafe { (_mm512_loadu_pd(kr.as_ptr()), _mm512_loadu_pd(zr.as_ptr())) };
+            let spring = _mm512_maskz_mul_pd(row.k, kk, d);
+            let damper = _mm512_maskz_mul_pd(row.z, zz, dv);
+            _mm512_mask_mov_pd(_mm512_add_pd(spring, damper), row.b, lnl)
+        } else {
+            _mm512_maskz_mov_pd(row.b, lnl)
+        };
+        f = _mm512_sub_pd(f, g);
+    }
+    f
+}
+
 /// The whole groups of `gr` (of eight MAS) and the last, partial, one if `gr` has it (then
 /// `gr.end - 1`; else an empty range), with `next` and `pn` (the slots of `gr`'s MAS) cut where
 /// the partial group's slots start.
@@ -692,6 +1032,69 @@ unsafe fn sum<'p>(
         let spring = _mm512_maskz_mul_pd(row.k, kk, _mm512_sub_pd(x, xj));
         let damper = _mm512_maskz_mul_pd(row.z, zz, _mm512_sub_pd(v, vj));
         f = _mm512_sub_pd(f, _mm512_add_pd(spring, damper));
+    }
+    f
+}
+
+/// [`sum`] for rows that may have BUT terms (lanes `row.b`), a threshold `ts` per row and lane
+/// (`S` where the lane's MAS is end 1 of the BUT, `-S` where it is end 2, lanes `row.flip`).
+///
+/// FORMALISM.md's BUT force is `f = K ((x1 - x2) + S) + Z v` while `x2 - x1 < S`, else `+0.0`
+/// (`ButLaw` in `engine.rs`). From end 1's side the lane computes `t = d + S`, with `d = x - xj`
+/// the reference's `x1 - x2`, and `g = K t + Z (v - vj)`: the reference's `f`, operand for
+/// operand, so `F - g = F + (-f)`. The test `x2 - x1 < S` is `-d < S` (`x2 - x1` is `-(x1 - x2)`
+/// exactly), that is `d > -S`, that is `t > 0`: a rounded sum has the sign of the exact one, and is
+/// NaN (no contact, as in the reference) where `d` is. From end 2's side, with `d = x - xj = -(x1
+/// - x2)` and `v - vj = -v`, the lane computes `t = d + (-S)` and `g = K t + Z (v - vj)`, which
+/// is `-f` (negating every operand negates each rounded sum and product), so `F - g = F + f`;
+/// the test is `d < S`, `t < 0`, which the lane checks as `-t > 0` (`t` with its sign flipped in
+/// the lanes `row.flip`). Out of contact `g` is set to `+0.0`, and `F - (+0.0) = F`, as adding
+/// the reference's zero does (`F` is never `-0.0`: see the module documentation). In the other
+/// lanes the threshold is not added (a masked add), and the terms are [`sum`]'s.
+///
+/// # Safety
+/// As [`sum`], and `ts` has an item for each row.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+unsafe fn sum_but<'p>(
+    rows: &[Row],
+    params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+    ts: &[[f64; LANES]],
+    base: *const u8,
+    x: __m512d,
+    v: __m512d,
+    (xs, vs): (__m512i, __m512i),
+) -> __m512d {
+    assert!(ts.len() == rows.len());
+    let sign = _mm512_set1_epi64(i64::MIN);
+    let zero = _mm512_setzero_pd();
+    let mut f = _mm512_setzero_pd();
+    for ((row, [kr, zr]), s) in rows.iter().zip(params).zip(ts) {
+        // SAFETY: the caller's promise.
+        let (xj, vj) = unsafe { pairs(base, &row.at, xs, vs) };
+        // SAFETY: eight `f64` each.
+        let (kk, zz, s) = unsafe {
+            (
+                _mm512_loadu_pd(kr.as_ptr()),
+                _mm512_loadu_pd(zr.as_ptr()),
+                _mm512_loadu_pd(s.as_ptr()),
+            )
+        };
+        let d = _mm512_sub_pd(x, xj);
+        let t = _mm512_mask_add_pd(d, row.b, d, s);
+        let u = _mm512_castsi512_pd(_mm512_mask_xor_epi64(
+            _mm512_castpd_si512(t),
+            row.flip,
+            _mm512_castpd_si512(t),
+            sign,
+        ));
+        // (BUT lanes out of contact: `!(u > 0)`, NaN included)
+        let off = _mm512_mask_cmp_pd_mask::<_CMP_NGT_UQ>(row.b, u, zero);
+        let spring = _mm512_maskz_mul_pd(row.k, kk, t);
+        let damper = _mm512_maskz_mul_pd(row.z, zz, _mm512_sub_pd(v, vj));
+        let g = _mm512_mask_mov_pd(_mm512_add_pd(spring, damper), off, zero);
+        f = _mm512_sub_pd(f, g);
     }
     f
 }

@@ -736,3 +736,40 @@ pub fn string_bank(
     net.add_force(firsts[1], Signal::Impulse { at: 5, amp: 0.02 });
     net
 }
+
+/// [`spring_network`] (links each their own `K` and `Z`) with every third link, the first
+/// included, made a BUT: thresholds of both signs and zero, one in four viscous only (`K = 0`),
+/// so that links come into and out of contact from both ends as the network rings.
+pub fn but_network(seed: u64, n: usize, inertia: u8) -> Network {
+    let mut net = spring_network(seed, n, 4, inertia, false);
+    for (i, link) in net.links.iter_mut().enumerate().step_by(3) {
+        let (k, z) = match link.law {
+            Interaction::Ref { k, z } => (k, z),
+            Interaction::Res { k } => (k, 5e-4),
+            Interaction::Fro { z } => (0.01, z),
+            _ => (0.01, 1e-4),
+        };
+        let k = if i % 4 == 3 { 0.0 } else { k };
+        let s = [0.0, 0.002, -0.002, 0.006, -0.006, 1e-4][i % 6];
+        link.law = Interaction::But { k, z, s };
+    }
+    net
+}
+
+/// [`spring_network`] (links each their own `K` and `Z`) with LNL links of one pair of curves,
+/// neither odd, the viscous one not zero at zero: every third link, the first included, or
+/// (`all`) every link.
+pub fn lnl_network(seed: u64, n: usize, inertia: u8, all: bool) -> Network {
+    let mut net = spring_network(seed, n, 4, inertia, false);
+    let lnl = Interaction::Lnl {
+        lk: Curve::new(&[(-0.01, -4e-4), (0.0, 0.0), (0.004, 5e-5), (0.02, 1.5e-3)])
+            .expect("a curve"),
+        lz: Curve::new(&[(-0.002, -2e-6), (0.001, 5e-7), (0.003, 0.0)]).expect("a curve"),
+    };
+    for (i, link) in net.links.iter_mut().enumerate() {
+        if all || i % 3 == 0 {
+            link.law = lnl.clone();
+        }
+    }
+    net
+}
