@@ -1288,10 +1288,10 @@ impl Kernel {
     /// no exceptions; the others the gather step, with the links in the storage order of
     /// [`link_order`] and progressions joined across exceptions ([`bridged`]). Both give the
     /// reference's bits.
-    /// A network of RES, FRO and REF links without locality (one that takes the compact step,
-    /// whose links are scattered, or whose links and MAS are mostly read through index lists)
-    /// also gets the pull step (`engine/pull.rs`) when the CPU has AVX-512 (with AVX2 only, when
-    /// every link is a REF): [`Engine::process`] then takes it, on one thread or on the pool's
+    /// A network without locality (one that takes the compact step, whose links are scattered,
+    /// or whose links and MAS are mostly read through index lists) also gets the pull step
+    /// (`engine/pull.rs`) when the CPU has AVX-512 and its links are RES, FRO, REF and BUT, or
+    /// RES, FRO, REF and LNL of one pair of curves (with AVX2 only, when every link is a REF): [`Engine::process`] then takes it, on one thread or on the pool's
     /// (`pull::PullJob`). Membranes, each of one
     /// REF law, their borders fixed or free, and strings, alone or with at most half as much
     /// around them, get the grid step instead when the CPU has AVX-512 or AVX2 (`engine/grid.rs`,
