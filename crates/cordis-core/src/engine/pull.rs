@@ -202,8 +202,8 @@ impl Pull {
                 _ => return None,
             }
         }
-        // The terms of mobile material `s`, in summing order: `Ok((other end, link))`, then
-        // `Err(input)`.
+        // The terms of mobile material `s`, in summing order: `Ok((other end, link, end 1))`, with
+        // whether `s` is end 1, then `Err(input)`.
         let terms = |s: usize| {
             let edges = &k.eidx[k.eoff[s] as usize..k.eoff[s + 1] as usize];
             edges.iter().map(move |&e| {
@@ -211,9 +211,9 @@ impl Pull {
                 if l >= k.nl {
                     Err((l - k.nl) as u32)
                 } else if e & NEG != 0 {
-                    Ok((k.lb[l], l)) // the material is end 1
+                    Ok((k.lb[l], l, true)) // the material is end 1
                 } else {
-                    Ok((k.la[l], l))
+                    Ok((k.la[l], l, false))
                 }
             })
         };
@@ -242,16 +242,10 @@ impl Pull {
         }
         for g in 0..k.n_mas.div_ceil(LANES) {
             let lanes = LANES * g..(LANES * (g + 1)).min(k.n_mas);
-            let links: Vec<Vec<(u32, usize)>> = lanes
+            let links: Vec<Vec<(u32, usize, bool)>> = lanes
                 .clone()
                 .map(|s| terms(s).filter_map(Result::ok).collect())
                 .collect();
-            // (whether the lane's MAS is end 1 of its `r`-th link)
-            let end1 = |s: usize, r: usize| {
-                let edges = &k.eidx[k.eoff[s] as usize..k.eoff[s + 1] as usize];
-                let mut links = edges.iter().filter(|&&e| ((e & !NEG) as usize) < k.nl);
-                links.nth(r).is_some_and(|&e| e & NEG != 0)
-            };
             let depth = links.iter().map(Vec::len).max().unwrap_or(0);
             for r in 0..depth {
                 let mut row = Row {
@@ -265,20 +259,18 @@ impl Pull {
                 let mut thresholds = [0.0; LANES];
                 for (i, s) in lanes.clone().enumerate() {
                     let mut other = s as u32; // padding: the lane's own MAS, masked off
-                    if let Some(&(o, l)) = links[i].get(r) {
+                    if let Some(&(o, l, end1)) = links[i].get(r) {
                         other = o;
                         row.k |= u8::from(has_k(law[l])) << i;
                         row.z |= u8::from(has_z(law[l])) << i;
                         params[0][i] = k.lk[l];
                         params[1][i] = k.lz[l];
-                        if law[l] == Law::But {
-                            let end1 = end1(s, r);
+                        if matches!(law[l], Law::But | Law::Lnl) {
                             row.b |= 1 << i;
                             row.flip |= u8::from(!end1) << i;
+                        }
+                        if law[l] == Law::But {
                             thresholds[i] = threshold(l, end1);
-                        } else if law[l] == Law::Lnl {
-                            row.b |= 1 << i;
-                            row.flip |= u8::from(!end1(s, r)) << i;
                         }
                     }
                     assert!((other as usize) < k.nm);
@@ -300,17 +292,14 @@ impl Pull {
             p.enf_bounds.push(p.enf.len() as u32);
         }
         for s in k.n_mas..k.n_mc {
-            let edges = &k.eidx[k.eoff[s] as usize..k.eoff[s + 1] as usize];
-            p.cel_terms
-                .extend(terms(s).zip(edges).map(|(t, &e)| match t {
-                    Ok((other, l)) if law[l] == Law::But => {
-                        let end1 = e & NEG != 0;
-                        CelTerm::But(other, k.lk[l], k.lz[l], threshold(l, end1), !end1)
-                    }
-                    Ok((other, l)) if law[l] == Law::Lnl => CelTerm::Lnl(other, e & NEG == 0),
-                    Ok((other, l)) => CelTerm::Link(other, law[l], k.lk[l], k.lz[l]),
-                    Err(e) => CelTerm::Input(e),
-                }));
+            p.cel_terms.extend(terms(s).map(|t| match t {
+                Ok((other, l, end1)) if law[l] == Law::But => {
+                    CelTerm::But(other, k.lk[l], k.lz[l], threshold(l, end1), !end1)
+                }
+                Ok((other, l, end1)) if law[l] == Law::Lnl => CelTerm::Lnl(other, !end1),
+                Ok((other, l, _)) => CelTerm::Link(other, law[l], k.lk[l], k.lz[l]),
+                Err(e) => CelTerm::Input(e),
+            }));
             p.cel_off.push(p.cel_terms.len() as u32);
         }
         p.recorded = k.recorded_links()?;
