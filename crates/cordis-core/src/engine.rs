@@ -4762,11 +4762,14 @@ mod tests {
             lk: Curve::new(&[(-1.0, -0.01), (1.0, 0.01)]).unwrap(),
             lz: Curve::new(&[(-1.0, 0.0), (1.0, 0.0)]).unwrap(),
         };
-        let mut jump = springs(1, 40, None);
-        jump.links[5].law = Interaction::Lnl {
-            lk: Curve::new(&[(0.0, -0.01), (0.0, 0.01), (1.0, 0.02)]).unwrap(),
-            lz: Curve::new(&[]).unwrap(),
-        };
+        let jump = springs(
+            1,
+            40,
+            Some(Interaction::Lnl {
+                lk: Curve::new(&[(0.0, -0.01), (0.0, 0.01), (1.0, 0.02)]).unwrap(),
+                lz: Curve::new(&[]).unwrap(),
+            }),
+        );
         for net in [both, two, jump] {
             assert!(Engine::new(&net).k.pull.is_none());
         }

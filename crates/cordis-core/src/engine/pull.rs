@@ -894,19 +894,27 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
     type Out = ();
 
     fn call<const A: usize, const B: usize>(self, k: ExactCurve<A>, z: ExactCurve<B>) {
-        let w = self;
-        assert!(matches!(w.pull.isa, Isa::Avx512(_)));
+        let WithCurves {
+            pull,
+            k: kernel,
+            n,
+            gr,
+            prev,
+            pc,
+            params,
+            next,
+            pn,
+        } = self;
+        assert!(matches!(pull.isa, Isa::Avx512(_)));
         // SAFETY: a pull step has `Isa::Avx512` only with the token, the CPU's proof of
         // AVX-512F, which `V8` and `groups_with` need.
         unsafe {
             let curves = Curves {
                 k: k.wide::<V8>(),
                 z: z.wide::<V8>(),
-                mixed: w.pull.mixed,
+                mixed: pull.mixed,
             };
-            let (gr, prev, pc, params) = (w.gr, w.prev, w.pc, w.params);
-            w.pull
-                .groups_with(curves, w.k, w.n, gr, prev, pc, params, w.next, w.pn);
+            pull.groups_with(curves, kernel, n, gr, prev, pc, params, next, pn);
         }
     }
 }
