@@ -4741,23 +4741,25 @@ mod tests {
         }
     }
 
-    /// Networks of springs and dampers, and of BUTs among them, take the pull step on an
-    /// AVX-512 CPU (and only there, and only when every link is a RES, FRO, REF or BUT), and it
+    /// Networks of springs and dampers, with BUTs or LNLs among them, take the pull step on an
+    /// AVX-512 CPU (and only there, and not with both BUTs and LNLs, or two pairs of curves, or
+    /// curves that do not evaluate eight at a time), and it
     /// gives the bits of the compact or gather step at every step: positions, outputs, and the
     /// link forces `link_force` reads after each block, whether `process` and `process_observed`
     /// take turns on one engine or not. The BUTs come into and out of contact, with the MAS and
-    /// the CEL at either end.
+    /// the CEL at either end. An LNL network's rows give the same bits whether every row
+    /// computes its springs and dampers or only the rows that have one.
     #[test]
     fn the_pull_step_gives_the_other_steps_bits() {
         let avx512 = Avx512::detect().is_some();
         // refused: a BUT and an LNL together, two pairs of curves, a curve with a jump first
-        let mut both = lnl_springs(1, 40, false);
+        let mut both = lnl_springs(1, 40, 0);
         both.links[6].law = Interaction::But {
             k: 0.01,
             z: 0.0,
             s: 0.0,
         };
-        let mut two = lnl_springs(1, 40, false);
+        let mut two = lnl_springs(1, 40, 0);
         two.links[5].law = Interaction::Lnl {
             lk: Curve::new(&[(-1.0, -0.01), (1.0, 0.01)]).unwrap(),
             lz: Curve::new(&[(-1.0, 0.0), (1.0, 0.0)]).unwrap(),
@@ -4790,11 +4792,13 @@ mod tests {
             (12, 17, 3),
             (13, 123, 3),
             (14, 500, 3),
+            (15, 40, 4),
+            (16, 500, 4),
         ] {
             let net = match kind {
                 0 => springs(seed, n, None),
                 1 => but_springs(seed, n),
-                _ => lnl_springs(seed, n, kind == 3),
+                _ => lnl_springs(seed, n, kind - 2),
             };
             let but_links: Vec<LinkId> = (0..net.links.len() as u32)
                 .map(LinkId)
@@ -4806,13 +4810,24 @@ mod tests {
             assert_eq!(pulled.k.pull.is_some(), avx512, "network {seed}");
             let mut compact = pulled.clone();
             let mut turns = pulled.clone();
+            // (an LNL network's rows computing their springs and dampers the other way: every
+            // row, or only those that have one)
+            let mut other_way = pulled.clone();
+            if let Some(pull) = other_way.k.pull.as_mut().filter(|_| kind >= 2) {
+                // (every link LNL, or every link but the FROs to the SOL, of one `Z`)
+                assert_eq!(pull.shared_params(), kind >= 3, "network {seed}");
+                assert!(kind != 3 || !pull.springs_in_every_row(), "network {seed}");
+                pull.toggle_springs_in_every_row();
+            }
             let ch = pulled.channels();
             let mut moved = false;
             for (i, block) in [1, 7, 300, 64, 1, 1024].into_iter().enumerate() {
                 let mut a = vec![0.0; block * ch];
                 let mut b = vec![0.0; block * ch];
                 let mut c = vec![0.0; block * ch];
+                let mut d = vec![0.0; block * ch];
                 assert!(pulled.process(block, &mut a).is_ok());
+                assert!(other_way.process(block, &mut d).is_ok());
                 assert!(compact.process_observed(block, &mut b, &mut |_| {}).is_ok());
                 let turn = if i % 2 == 0 {
                     turns.process(block, &mut c)
@@ -4822,12 +4837,13 @@ mod tests {
                 assert!(turn.is_ok());
                 let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
                 assert_eq!(bits(&a), bits(&b), "network {seed}, block {i}");
+                assert_eq!(bits(&d), bits(&b), "network {seed}, block {i}, other way");
                 assert_eq!(
                     bits(&c),
                     bits(&b),
                     "network {seed}, block {i}, taking turns"
                 );
-                for e in [&pulled, &turns] {
+                for e in [&pulled, &turns, &other_way] {
                     for m in (0..net.materials.len() as u32).map(MatId) {
                         assert_eq!(e.position(m).to_bits(), compact.position(m).to_bits());
                         assert_eq!(
@@ -4851,9 +4867,10 @@ mod tests {
     }
 
     /// [`springs`] with LNL links of one pair of curves, neither odd, the viscous one not zero
-    /// at zero: every fourth link (MAS to MAS, some to the CEL), a MAS's link to the SOL and
-    /// the ENX's link; or (`all`) every link.
-    fn lnl_springs(seed: u64, n: usize, all: bool) -> Network {
+    /// at zero: `mix` 0, every fourth link (MAS to MAS, some to the CEL), a MAS's link to the
+    /// SOL and the ENX's link; 1, every link; 2, every link but the FROs that tie each MAS to
+    /// the SOL (all of one `Z`; a row has one or none).
+    fn lnl_springs(seed: u64, n: usize, mix: u8) -> Network {
         let mut net = springs(seed, n, None);
         let lnl = Interaction::Lnl {
             lk: Curve::new(&[(-0.01, -8e-4), (0.0, 0.0), (0.004, 1e-4), (0.02, 3e-3)]).unwrap(),
@@ -4861,7 +4878,12 @@ mod tests {
         };
         let count = net.links.len();
         for (i, link) in net.links.iter_mut().enumerate() {
-            if all || i % 4 == 1 || i == count - 2 || i == count - 1 {
+            let grounding = link.law == Interaction::Fro { z: 1e-4 };
+            if match mix {
+                0 => i % 4 == 1 || i == count - 2 || i == count - 1,
+                1 => true,
+                _ => !grounding,
+            } {
                 link.law = lnl.clone();
             }
         }

@@ -340,7 +340,7 @@ fn sticking_springs_and_small_curves_match_the_reference() {
 /// where each MAS computes its own links' forces: see engine/pull.rs) equal the reference at
 /// every step, in every position, link force and output, for each way of applying inertias, with
 /// uniform and mixed links, BUT links among them (coming into and out of contact), LNL links
-/// among them or alone, partial
+/// among them (the others of one `K` and `Z`, or each their own) or alone, partial
 /// groups of eight, more MAS than a window of the pull step's storage order, and blocks of any
 /// size.
 #[test]
@@ -373,16 +373,20 @@ fn spring_networks_equal_the_reference() {
         let moved = equals_reference_in_blocks(&net, 1500, &what);
         assert!(moved > net.outputs.len() / 2, "{what}");
     }
-    // with LNL links of one pair of curves, among the others or alone
-    for (seed, n, inertia, all) in [
-        (11, 16, 0, false),
-        (12, 17, 1, true),
-        (13, 100, 2, false),
-        (14, 333, 3, true),
-        (15, 700, 0, false),
+    // with LNL links of one pair of curves, among the others (each their own `K` and `Z`, or
+    // REF of one) or alone
+    for (seed, n, inertia, all, uniform) in [
+        (11, 16, 0, false, false),
+        (12, 17, 1, true, false),
+        (13, 100, 2, false, false),
+        (14, 333, 3, true, false),
+        (15, 700, 0, false, false),
+        (16, 100, 1, false, true),
+        (17, 333, 3, false, true),
     ] {
-        let net = lnl_network(seed, n, inertia, all);
-        let what = format!("LNL, seed {seed}, {n} MAS, inertia {inertia}, all {all}");
+        let net = lnl_network(seed, n, inertia, all, uniform);
+        let what =
+            format!("LNL, seed {seed}, {n} MAS, inertia {inertia}, all {all}, uniform {uniform}");
         let moved = equals_reference_in_blocks(&net, 1500, &what);
         assert!(moved > net.outputs.len() / 2, "{what}");
     }

@@ -143,9 +143,12 @@ pub(super) struct Pull {
     /// other lanes), when the network has a BUT; else empty.
     thresholds: Vec<[f64; LANES]>,
     /// The curves of every LNL link, when the network has LNL links (all of one pair of curves
-    /// that evaluate eight at a time); and whether it has other links too.
+    /// that evaluate eight at a time).
     curves: Option<ExactPair>,
-    mixed: bool,
+    /// Whether every row of an LNL network computes the springs and dampers of its lanes; else
+    /// only the rows that have one (see [`sum_lnl`]). Every row does where rows with and rows
+    /// without them alternate often ([`Pull::springs_everywhere`]).
+    springs_everywhere: bool,
     /// ENF inputs of group `g`: `enf[enf_bounds[g]..enf_bounds[g + 1]]`, `(lane, input)` in the
     /// order they are summed.
     enf_bounds: Vec<u32>,
@@ -217,8 +220,11 @@ impl Pull {
                 }
             })
         };
+        // (an LNL lane reads no `K` or `Z`: the rows share theirs when the other links do)
         let kz = |l: usize| (k.lk[l].to_bits(), k.lz[l].to_bits());
-        let uniform = (0..k.nl).all(|l| kz(l) == kz(0));
+        let mut spring_links = (0..k.nl).filter(|&l| law[l] != Law::Lnl);
+        let first = spring_links.next();
+        let uniform = spring_links.all(|l| Some(kz(l)) == first.map(kz));
         let but = law.contains(&Law::But);
         // (the threshold from the lane's side: `S` where its MAS is end 1, `-S` where end 2)
         let threshold = |l: usize, end1: bool| if end1 { k.ls[l] } else { -k.ls[l] };
@@ -232,13 +238,14 @@ impl Pull {
             enf: Vec::new(),
             thresholds: Vec::new(),
             curves,
-            mixed: law.iter().any(|&l| l != Law::Lnl),
+            springs_everywhere: false,
             cel_off: vec![0],
             cel_terms: Vec::new(),
             recorded: Vec::new(),
         };
-        if uniform && k.nl > 0 {
-            p.params.push([[k.lk[0]; LANES], [k.lz[0]; LANES]]);
+        if uniform {
+            let (kk, zz) = first.map_or((0.0, 0.0), |l| (k.lk[l], k.lz[l]));
+            p.params.push([[kk; LANES], [zz; LANES]]);
         }
         for g in 0..k.n_mas.div_ceil(LANES) {
             let lanes = LANES * g..(LANES * (g + 1)).min(k.n_mas);
@@ -302,6 +309,7 @@ impl Pull {
             }));
             p.cel_off.push(p.cel_terms.len() as u32);
         }
+        p.springs_everywhere = p.curves.is_some() && Pull::springs_everywhere(&p.rows);
         p.recorded = k.recorded_links()?;
         assert!(p.cel_terms.iter().all(|t| match *t {
             CelTerm::Link(j, ..) | CelTerm::But(j, ..) | CelTerm::Lnl(j, _) => (j as usize) < k.nm,
@@ -309,6 +317,32 @@ impl Pull {
         }));
         assert!(p.enf.iter().all(|&(_, i)| (i as usize) < k.enf.len()));
         Some(p)
+    }
+
+    /// Whether an LNL network's rows should all compute their springs and dampers, rather than
+    /// each row only if it has one: when rows with and rows without them alternate in more than
+    /// one row in 16, as a branch on each row would then be mispredicted more often than the
+    /// three operations it saves (in the rows without) are worth.
+    fn springs_everywhere(rows: &[Row]) -> bool {
+        let springs = |r: &Row| (r.k | r.z) != 0;
+        let changes = rows
+            .windows(2)
+            .filter(|w| springs(&w[0]) != springs(&w[1]))
+            .count();
+        16 * changes > rows.len()
+    }
+
+    /// Whether every row of an LNL network computes its springs and dampers.
+    #[cfg(test)]
+    pub(super) fn springs_in_every_row(&self) -> bool {
+        self.springs_everywhere
+    }
+
+    /// Makes the rows of an LNL network compute their springs and dampers the other way (every
+    /// row, or only those that have one): the same bits either way.
+    #[cfg(test)]
+    pub(super) fn toggle_springs_in_every_row(&mut self) {
+        self.springs_everywhere = !self.springs_everywhere;
     }
 
     /// Whether every row has the same `K` and `Z` (one row of parameters for them all).
@@ -807,14 +841,14 @@ struct Springs;
 #[derive(Clone, Copy)]
 struct Buts;
 
-/// LNL terms of one pair of curves of `A` and `B` points, and RES, FRO and REF terms when
-/// `mixed` ([`sum_lnl`]).
+/// LNL terms of one pair of curves of `A` and `B` points, and RES, FRO and REF terms
+/// ([`sum_lnl`]; in every row when `springs_everywhere`, else in the rows that have them).
 #[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
 struct Curves<const A: usize, const B: usize> {
     k: WideCurve<V8, A>,
     z: WideCurve<V8, B>,
-    mixed: bool,
+    springs_everywhere: bool,
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -912,23 +946,27 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
             let curves = Curves {
                 k: k.wide::<V8>(),
                 z: z.wide::<V8>(),
-                mixed: pull.mixed,
+                springs_everywhere: pull.springs_everywhere,
             };
             pull.groups_with(curves, kernel, n, gr, prev, pc, params, next, pn);
         }
     }
 }
 
-/// [`sum`] for rows whose lanes `row.b` have LNL terms of the curves `c` (every lane but
-/// padding when not `c.mixed`), those of `row.flip` where the lane's MAS is the link's end 2.
+/// [`sum`] for rows whose lanes `row.b` have LNL terms of the curves `c`, those of `row.flip`
+/// where the lane's MAS is the link's end 2.
 ///
 /// FORMALISM.md's LNL force is `f = LK(x1 - x2) + LZ(v)` (`ExactPair::force`, whose bits
 /// `WideCurve::eval` gives lane by lane). From end 1's side `d = x - xj` and `v - vj` are the
 /// reference's operands, `g = f`, and `F - g = F + (-f)`. From end 2's side they are the
 /// reference's negated (`a - b = -(b - a)` exactly), so the lane negates them (its sign bit
 /// flipped, exact), evaluates the curves on the reference's operands, and negates the force: `g
-/// = -f`, and `F - g = F + f`. The other lanes of a mixed row are [`sum`]'s terms, and a padding
-/// lane's `g` is `+0.0` (its curves' value at zero is not used).
+/// = -f`, and `F - g = F + f`. The other lanes of a row are [`sum`]'s terms (a padding lane's
+/// `g` is `+0.0`: its curves' value at zero is not used). A row with no spring or damper lane
+/// skips them, unless `c.springs_everywhere`: its other lanes are padding, whose `g` is `+0.0`
+/// either way (computed, it is the sum of two masked products, `+0.0 + +0.0`). An LNL lane reads
+/// no `K` or `Z`, so the rows of a network share one row of parameters when its other links
+/// have the same (`Pull::new`).
 ///
 /// # Safety
 /// As [`sum`].
@@ -968,7 +1006,7 @@ unsafe fn sum_lnl<'p, const A: usize, const B: usize>(
             );
             flip(row.flip, _mm512_add_pd(fk.0, fz.0))
         };
-        let g = if c.mixed {
+        let g = if c.springs_everywhere || (row.k | row.z) != 0 {
             // SAFETY: eight `f64` each.
             let (kk, zz) = unsafe { (_mm512_loadu_pd(kr.as_ptr()), _mm512_loadu_pd(zr.as_ptr())) };
             let spring = _mm512_maskz_mul_pd(row.k, kk, d);

@@ -756,11 +756,11 @@ pub fn but_network(seed: u64, n: usize, inertia: u8) -> Network {
     net
 }
 
-/// [`spring_network`] (links each their own `K` and `Z`) with LNL links of one pair of curves,
-/// neither odd, the viscous one not zero at zero: every third link, the first included, or
-/// (`all`) every link.
-pub fn lnl_network(seed: u64, n: usize, inertia: u8, all: bool) -> Network {
-    let mut net = spring_network(seed, n, 4, inertia, false);
+/// [`spring_network`] with LNL links of one pair of curves, neither odd, the viscous one not
+/// zero at zero: every third link, the first included, or (`all`) every link. The other links
+/// are REF of one `K` and `Z` when `uniform`, else each their own.
+pub fn lnl_network(seed: u64, n: usize, inertia: u8, all: bool, uniform: bool) -> Network {
+    let mut net = spring_network(seed, n, 4, inertia, uniform);
     let lnl = Interaction::Lnl {
         lk: Curve::new(&[(-0.01, -4e-4), (0.0, 0.0), (0.004, 5e-5), (0.02, 1.5e-3)])
             .expect("a curve"),
