@@ -30,7 +30,9 @@
 //! - `random N`: N masses, each the end 1 of 2 REF links to masses drawn by a seeded LCG (4 links
 //!   per mass on average), one ground tied to mass 0, strike on N/4, SOX on N/2.
 //! - `random-but N`, `random-lnl N`: the same network with every link a BUT of threshold 0 (a
-//!   null-length spring in contact while `x2 - x1 < 0`), or an LNL as the `lnl` string's.
+//!   null-length spring in contact while `x2 - x1 < 0`), or an LNL as the `lnl` string's;
+//!   `random-struck N`: the REF network and a hammer as `struck`'s, on mass N/3 (the hammer
+//!   counts in the unit of work).
 //!
 //! `threads [N [T [KIND...]]]` times a string of N masses, a membrane of about N masses (316x316
 //! for 100,000), a `pair` of membranes of about N/2 masses each (224x224) and a random network of
@@ -68,12 +70,14 @@ enum Law {
     Ref,
     But,
     Lnl,
+    /// REF links and a hammer (the random network only)
+    Struck,
 }
 
 impl Law {
     fn interaction(self) -> Interaction {
         match self {
-            Law::Ref => Interaction::Ref { k: K, z: Z },
+            Law::Ref | Law::Struck => Interaction::Ref { k: K, z: Z },
             Law::But => Interaction::But {
                 k: K,
                 z: Z,
@@ -156,6 +160,7 @@ fn string(n: usize, law: Law) -> Model {
         Law::Ref => format!("string_N{n}"),
         Law::But => format!("string_but_N{n}"),
         Law::Lnl => format!("string_lnl_N{n}"),
+        Law::Struck => unreachable!("a struck string is not a bench model"),
     };
     Model {
         name,
@@ -393,6 +398,16 @@ fn random(n: usize, law: Law) -> Model {
             net.add_link(interaction.clone(), a, masses[j]);
         }
     }
+    if law == Law::Struck {
+        // (as `struck R C`'s hammer)
+        let hammer = net.add_material(Material::Mas {
+            m: 4.0 * M,
+            x0: 2.0,
+            v0: -0.01,
+        });
+        let felt = Interaction::But { k: K, z: Z, s: 0.0 };
+        net.add_link(felt, masses[n / 3], hammer);
+    }
     let out = masses[n / 2];
     net.add_position_output(out);
     Model {
@@ -400,9 +415,10 @@ fn random(n: usize, law: Law) -> Model {
             Law::Ref => format!("random_N{n}"),
             Law::But => format!("random_but_N{n}"),
             Law::Lnl => format!("random_lnl_N{n}"),
+            Law::Struck => format!("random_struck_N{n}"),
         },
         net,
-        masses: n,
+        masses: n + usize::from(law == Law::Struck),
         out,
     }
 }
@@ -1204,7 +1220,7 @@ fn usage() -> ! {
     eprintln!(
         "usage: cargo bench -p cordis-core --bench engine -- [string [N]] [but [N]] [lnl [N]] \
          [membrane [R C | RxC]] [rimmed|free|struck|pair|graded R C | RxC] [strings S N | SxN] \
-         [random [N]] [random-but [N]] [random-lnl [N]]...\n(no model: every default model)\n   \
+         [random [N]] [random-but [N]] [random-lnl [N]] [random-struck [N]]...\n(no model: every default model)\n   \
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
          threads, default N = 100000 masses, T = 2)\n   \
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
@@ -1226,12 +1242,13 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "but" => Some(Law::But),
             "lnl" => Some(Law::Lnl),
             "membrane" | "rimmed" | "free" | "struck" | "pair" | "graded" | "random"
-            | "random-but" | "random-lnl" | "strings" => None,
+            | "random-but" | "random-lnl" | "random-struck" | "strings" => None,
             _ => usage(),
         };
         let random_law = match kind {
             "random-but" => Law::But,
             "random-lnl" => Law::Lnl,
+            "random-struck" => Law::Struck,
             _ => Law::Ref,
         };
         let first = args.get(i).map(String::as_str);

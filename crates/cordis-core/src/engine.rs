@@ -4794,10 +4794,12 @@ mod tests {
             (14, 500, 3),
             (15, 40, 4),
             (16, 500, 4),
+            (17, 40, 5),
+            (18, 500, 5),
         ] {
             let net = match kind {
                 0 => springs(seed, n, None),
-                1 => but_springs(seed, n),
+                1 | 5 => but_springs(seed, n, kind == 1),
                 _ => lnl_springs(seed, n, kind - 2),
             };
             let but_links: Vec<LinkId> = (0..net.links.len() as u32)
@@ -4810,14 +4812,21 @@ mod tests {
             assert_eq!(pulled.k.pull.is_some(), avx512, "network {seed}");
             let mut compact = pulled.clone();
             let mut turns = pulled.clone();
-            // (an LNL network's rows computing their springs and dampers the other way: every
-            // row, or only those that have one)
+            // (the rows computing the terms only some rows have the other way, every row or
+            // only those that have one: a BUT network's BUTs, an LNL network's springs)
             let mut other_way = pulled.clone();
-            if let Some(pull) = other_way.k.pull.as_mut().filter(|_| kind >= 2) {
+            if let Some(pull) = other_way.k.pull.as_mut().filter(|_| kind >= 1) {
                 // (every link LNL, or every link but the FROs to the SOL, of one `Z`)
-                assert_eq!(pull.shared_params(), kind >= 3, "network {seed}");
-                assert!(kind != 3 || !pull.springs_in_every_row(), "network {seed}");
-                pull.toggle_springs_in_every_row();
+                assert_eq!(
+                    pull.shared_params(),
+                    kind == 3 || kind == 4,
+                    "network {seed}"
+                );
+                // (no row has a spring; one row in many has the BUT)
+                if kind == 3 || (kind == 5 && n >= 500) {
+                    assert!(!pull.has_full_rows(), "network {seed}");
+                }
+                pull.toggle_full_rows();
             }
             let ch = pulled.channels();
             let mut moved = false;
@@ -4891,12 +4900,18 @@ mod tests {
     }
 
     /// [`springs`] with BUTs: every fourth link (MAS to MAS, some to the CEL, thresholds of both
-    /// signs and zero, one in three viscous only), a MAS's link to the SOL and the ENX's link.
-    fn but_springs(seed: u64, n: usize) -> Network {
+    /// signs and zero, one in three viscous only), a MAS's link to the SOL and the ENX's link;
+    /// or (not `every`) one BUT, link 1, between two MAS, as a hammer's.
+    fn but_springs(seed: u64, n: usize, every: bool) -> Network {
         let mut net = springs(seed, n, None);
         let count = net.links.len();
         for (i, link) in net.links.iter_mut().enumerate() {
-            if i % 4 == 1 || i == count - 2 || i == count - 1 {
+            let but = if every {
+                i % 4 == 1 || i == count - 2 || i == count - 1
+            } else {
+                i == 1
+            };
+            if but {
                 let s = [0.0, 0.004, -0.004, 0.01, -0.01][i % 5];
                 let k = if i % 3 == 0 { 0.0 } else { 0.04 };
                 link.law = Interaction::But { k, z: 1e-3, s };

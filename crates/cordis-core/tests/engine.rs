@@ -339,7 +339,8 @@ fn sticking_springs_and_small_curves_match_the_reference() {
 /// Networks of springs and dampers without locality (on an AVX-512 CPU they take the pull step,
 /// where each MAS computes its own links' forces: see engine/pull.rs) equal the reference at
 /// every step, in every position, link force and output, for each way of applying inertias, with
-/// uniform and mixed links, BUT links among them (coming into and out of contact), LNL links
+/// uniform and mixed links, BUT links among them (many, or one as a hammer's; coming into and
+/// out of contact), LNL links
 /// among them (the others of one `K` and `Z`, or each their own) or alone, partial
 /// groups of eight, more MAS than a window of the pull step's storage order, and blocks of any
 /// size.
@@ -362,14 +363,19 @@ fn spring_networks_equal_the_reference() {
         let moved = equals_reference_in_blocks(&net, 600, &what);
         assert!(moved > net.outputs.len() / 2, "{what}");
     }
-    // with BUT links among them (the pull step takes them too), in and out of contact
-    for (seed, n, inertia) in [(6, 16), (7, 17), (8, 100), (9, 333), (10, 700)]
-        .into_iter()
-        .zip(0..)
-        .map(|((seed, n), i)| (seed, n, i % 4))
-    {
-        let net = but_network(seed, n, inertia);
-        let what = format!("BUT, seed {seed}, {n} MAS, inertia {inertia}");
+    // with BUT links among them (the pull step takes them too), in and out of contact: every
+    // third link, or one (a hammer's)
+    for (seed, n, inertia, step) in [
+        (6, 16, 0, 3),
+        (7, 17, 1, 3),
+        (8, 100, 2, 3),
+        (9, 333, 3, 3),
+        (10, 700, 0, 3),
+        (18, 100, 1, usize::MAX),
+        (19, 333, 2, usize::MAX),
+    ] {
+        let net = but_network(seed, n, inertia, step);
+        let what = format!("BUT, seed {seed}, {n} MAS, inertia {inertia}, every {step}th link");
         let moved = equals_reference_in_blocks(&net, 1500, &what);
         assert!(moved > net.outputs.len() / 2, "{what}");
     }

@@ -737,12 +737,12 @@ pub fn string_bank(
     net
 }
 
-/// [`spring_network`] (links each their own `K` and `Z`) with every third link, the first
+/// [`spring_network`] (links each their own `K` and `Z`) with every `step`-th link, the first
 /// included, made a BUT: thresholds of both signs and zero, one in four viscous only (`K = 0`),
 /// so that links come into and out of contact from both ends as the network rings.
-pub fn but_network(seed: u64, n: usize, inertia: u8) -> Network {
+pub fn but_network(seed: u64, n: usize, inertia: u8, step: usize) -> Network {
     let mut net = spring_network(seed, n, 4, inertia, false);
-    for (i, link) in net.links.iter_mut().enumerate().step_by(3) {
+    for (i, link) in net.links.iter_mut().enumerate().step_by(step) {
         let (k, z) = match link.law {
             Interaction::Ref { k, z } => (k, z),
             Interaction::Res { k } => (k, 5e-4),
