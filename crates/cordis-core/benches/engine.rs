@@ -139,6 +139,18 @@ fn ground(net: &mut Network) -> MatId {
     net.add_material(Material::Sol { x0: 0.0 })
 }
 
+/// A hammer (a MAS of inertia 4, falling from x = 2 at 0.01 per step) declared now, tied to
+/// `target` by a BUT link (K and Z as the models' REF links, S = 0).
+fn hammer(net: &mut Network, target: MatId) {
+    let hammer = net.add_material(Material::Mas {
+        m: 4.0 * M,
+        x0: 2.0,
+        v0: -0.01,
+    });
+    let felt = Interaction::But { k: K, z: Z, s: 0.0 };
+    net.add_link(felt, target, hammer);
+}
+
 /// As `gen_models.py build_string`: ground, N masses, ground, chained by N+1 links.
 fn string(n: usize, law: Law) -> Model {
     let mut net = Network::new();
@@ -285,13 +297,7 @@ fn membrane(rows: usize, cols: usize, rim: Option<Rim>) -> Model {
             }
         }
         if rim == Rim::Struck {
-            let hammer = net.add_material(Material::Mas {
-                m: 4.0 * M,
-                x0: 2.0,
-                v0: -0.01,
-            });
-            let felt = Interaction::But { k: K, z: Z, s: 0.0 };
-            net.add_link(felt, at(rows / 3, cols / 3), hammer);
+            hammer(&mut net, at(rows / 3, cols / 3));
             masses += 1;
         }
     } else {
@@ -399,14 +405,7 @@ fn random(n: usize, law: Law) -> Model {
         }
     }
     if law == Law::Struck {
-        // (as `struck R C`'s hammer)
-        let hammer = net.add_material(Material::Mas {
-            m: 4.0 * M,
-            x0: 2.0,
-            v0: -0.01,
-        });
-        let felt = Interaction::But { k: K, z: Z, s: 0.0 };
-        net.add_link(felt, masses[n / 3], hammer);
+        hammer(&mut net, masses[n / 3]);
     }
     let out = masses[n / 2];
     net.add_position_output(out);
