@@ -4747,8 +4747,9 @@ mod tests {
     /// gives the bits of the compact or gather step at every step: positions, outputs, and the
     /// link forces `link_force` reads after each block, whether `process` and `process_observed`
     /// take turns on one engine or not. The BUTs come into and out of contact, with the MAS and
-    /// the CEL at either end. An LNL network's rows give the same bits whether every row
-    /// computes its springs and dampers or only the rows that have one.
+    /// the CEL at either end. A BUT or LNL network's rows give the same bits whether every row
+    /// computes the terms only some rows have (BUTs; springs and dampers) or only the rows that
+    /// have one.
     #[test]
     fn the_pull_step_gives_the_other_steps_bits() {
         let avx512 = Avx512::detect().is_some();
@@ -4777,6 +4778,8 @@ mod tests {
         }
         assert!(Engine::new(&springs(1, 8, None)).k.pull.is_none()); // (fewer than PULL_MIN MAS)
         let mut toggled = 0;
+        // (kinds: 0 springs and dampers, 1 BUTs among them, 2 to 4 LNL networks of `mix` 0 to 2,
+        // 5 one BUT among springs and dampers)
         for (seed, n, kind) in [
             (1, 16, 0),
             (2, 40, 0),

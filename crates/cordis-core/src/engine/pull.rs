@@ -852,7 +852,9 @@ struct Springs;
 struct Buts<const SKIP: bool>;
 
 /// LNL terms of one pair of curves of `A` and `B` points, and RES, FRO and REF terms
-/// ([`sum_lnl`]; in every row when `full_rows`, else in the rows that have them).
+/// ([`sum_lnl`]; in every row when `full_rows`, else in the rows that have them). `full_rows`
+/// is a run-time flag here, unlike [`Buts`]'s `SKIP`, to keep one loop per pair of point counts;
+/// the loop tested a flag on each row before it too (whether the network had other links).
 #[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
 struct Curves<const A: usize, const B: usize> {
