@@ -32,7 +32,10 @@
 //! - `random-but N`, `random-lnl N`: the same network with every link a BUT of threshold 0 (a
 //!   null-length spring in contact while `x2 - x1 < 0`), or an LNL as the `lnl` string's;
 //!   `random-struck N`: the REF network and a hammer as `struck`'s, on mass N/3 (the hammer
-//!   counts in the unit of work).
+//!   counts in the unit of work); `random-lnl-mixed N`: LNL links of two pairs of curves (the
+//!   second 1.1 times as stiff), a link's pair chosen by its end 2, so mixed in nearly every
+//!   group's rows; `random-lnl-halves N`: two random networks of N/2 masses (each struck on
+//!   its mass N/4), the links of each of its own pair, tied by one LNL link.
 //!
 //! `threads [N [T [KIND...]]]` times a string of N masses, a membrane of about N masses (316x316
 //! for 100,000), a `pair` of membranes of about N/2 masses each (224x224) and a random network of
@@ -72,28 +75,38 @@ enum Law {
     Lnl,
     /// REF links and a hammer (the random network only)
     Struck,
+    /// LNL links of two pairs of curves, the second's stiffness 1.1 times the first's, the pair
+    /// of a link chosen by its end 2 (the random network only): mixed in nearly every row
+    LnlMixed,
+    /// Two random networks of N/2 masses, the LNL links of each of its own pair of curves (as
+    /// `LnlMixed`'s), tied by one LNL link: rows of one pair
+    LnlHalves,
 }
 
 impl Law {
     fn interaction(self) -> Interaction {
         match self {
             Law::Ref | Law::Struck => Interaction::Ref { k: K, z: Z },
+            Law::LnlMixed | Law::LnlHalves => Law::Lnl.interaction(),
             Law::But => Interaction::But {
                 k: K,
                 z: Z,
                 s: BUT_S,
             },
-            Law::Lnl => {
-                let curve = |slope: f64| {
-                    Curve::new(&[(-LNL_L, -slope * LNL_L), (0.0, 0.0), (LNL_L, slope * LNL_L)])
-                        .expect("a valid curve")
-                };
-                Interaction::Lnl {
-                    lk: curve(K),
-                    lz: curve(Z),
-                }
-            }
+            Law::Lnl => lnl(K),
         }
+    }
+}
+
+/// An LNL link of 3-point curves through 0 with slopes `k` and Z.
+fn lnl(k: f64) -> Interaction {
+    let curve = |slope: f64| {
+        Curve::new(&[(-LNL_L, -slope * LNL_L), (0.0, 0.0), (LNL_L, slope * LNL_L)])
+            .expect("a valid curve")
+    };
+    Interaction::Lnl {
+        lk: curve(k),
+        lz: curve(Z),
     }
 }
 
@@ -172,7 +185,7 @@ fn string(n: usize, law: Law) -> Model {
         Law::Ref => format!("string_N{n}"),
         Law::But => format!("string_but_N{n}"),
         Law::Lnl => format!("string_lnl_N{n}"),
-        Law::Struck => unreachable!("a struck string is not a bench model"),
+        _ => unreachable!("a string's links are of one law"),
     };
     Model {
         name,
@@ -391,21 +404,41 @@ fn random(n: usize, law: Law) -> Model {
         Law::But => Interaction::But { k: K, z: Z, s: 0.0 },
         law => law.interaction(),
     };
+    let halves = law == Law::LnlHalves;
     let mut net = Network::new();
+    let struck = |i: usize| i == n / 4 || (halves && i == n / 2 + n / 4);
     let masses: Vec<MatId> = (0..n)
-        .map(|i| mass(&mut net, if i == n / 4 { V0 } else { 0.0 }))
+        .map(|i| mass(&mut net, if struck(i) { V0 } else { 0.0 }))
         .collect();
     let g = ground(&mut net);
     net.add_link(Law::Ref.interaction(), g, masses[0]);
     let mut rng = Lcg(0x00c0_4d15_2026_1122);
     for (i, &a) in masses.iter().enumerate() {
+        // (the masses `i` may draw from: all, or those of its half)
+        let (from, count) = match (halves, i < n / 2) {
+            (false, _) => (0, n),
+            (true, true) => (0, n / 2),
+            (true, false) => (n / 2, n - n / 2),
+        };
         for _ in 0..2 {
-            let j = (i + 1 + rng.below(n - 1)) % n; // any mass but i
-            net.add_link(interaction.clone(), a, masses[j]);
+            let j = from + (i - from + 1 + rng.below(count - 1)) % count; // any mass but i
+            let second = match law {
+                Law::LnlMixed => j % 2 == 1,
+                _ => halves && i >= n / 2,
+            };
+            let link = if second {
+                lnl(1.1 * K)
+            } else {
+                interaction.clone()
+            };
+            net.add_link(link, a, masses[j]);
         }
     }
     if law == Law::Struck {
         hammer(&mut net, masses[n / 3]);
+    }
+    if halves {
+        net.add_link(interaction, masses[0], masses[n - 1]);
     }
     let out = masses[n / 2];
     net.add_position_output(out);
@@ -415,6 +448,8 @@ fn random(n: usize, law: Law) -> Model {
             Law::But => format!("random_but_N{n}"),
             Law::Lnl => format!("random_lnl_N{n}"),
             Law::Struck => format!("random_struck_N{n}"),
+            Law::LnlMixed => format!("random_lnl_mixed_N{n}"),
+            Law::LnlHalves => format!("random_lnl_halves_N{n}"),
         },
         net,
         masses: n + usize::from(law == Law::Struck),
@@ -1219,7 +1254,8 @@ fn usage() -> ! {
     eprintln!(
         "usage: cargo bench -p cordis-core --bench engine -- [string [N]] [but [N]] [lnl [N]] \
          [membrane [R C | RxC]] [rimmed|free|struck|pair|graded R C | RxC] [strings S N | SxN] \
-         [random [N]] [random-but [N]] [random-lnl [N]] [random-struck [N]]...\n(no model: every default model)\n   \
+         [random [N]] [random-but [N]] [random-lnl [N]] [random-struck [N]] \
+         [random-lnl-mixed [N]] [random-lnl-halves [N]]...\n(no model: every default model)\n   \
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
          threads, default N = 100000 masses, T = 2)\n   \
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
@@ -1241,13 +1277,16 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "but" => Some(Law::But),
             "lnl" => Some(Law::Lnl),
             "membrane" | "rimmed" | "free" | "struck" | "pair" | "graded" | "random"
-            | "random-but" | "random-lnl" | "random-struck" | "strings" => None,
+            | "random-but" | "random-lnl" | "random-struck" | "random-lnl-mixed"
+            | "random-lnl-halves" | "strings" => None,
             _ => usage(),
         };
         let random_law = match kind {
             "random-but" => Law::But,
             "random-lnl" => Law::Lnl,
             "random-struck" => Law::Struck,
+            "random-lnl-mixed" => Law::LnlMixed,
+            "random-lnl-halves" => Law::LnlHalves,
             _ => Law::Ref,
         };
         let first = args.get(i).map(String::as_str);

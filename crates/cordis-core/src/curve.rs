@@ -181,6 +181,50 @@ impl<const N: usize> ExactCurve<N> {
         self.ys.iter().all(|y| y.to_bits() != (-0.0f64).to_bits())
     }
 
+    /// The curve as one of `M` points, its last point repeated: the same value everywhere, bit
+    /// for bit, in [`ExactCurve::eval`] and [`WideCurve::eval`] (where `x` reaches the last
+    /// abscissa both give the last value, the curve's end: the added segment, of no width and
+    /// slope `0.0`, is computed there but not chosen; below it, no repeated point is `<= x`, and
+    /// the selects and the end test are the `N`-point curve's). `None` when `M < N`, and for the
+    /// zero curve unless `M` is 0 (it has no point to repeat).
+    pub(crate) fn padded<const M: usize>(&self) -> Option<ExactCurve<M>> {
+        if M < N || M == 1 || (N == 0) != (M == 0) {
+            return None;
+        }
+        let mut e = ExactCurve {
+            xs: [0.0; M],
+            ys: [0.0; M],
+            slopes: [0.0; M],
+        };
+        for i in 0..M {
+            let j = i.min(N.saturating_sub(1));
+            e.xs[i] = self.xs[j];
+            e.ys[i] = self.ys[j];
+            e.slopes[i] = if i + 1 < N { self.slopes[i] } else { 0.0 };
+        }
+        Some(e)
+    }
+
+    /// Appends the curve's `3 N` numbers to `out`, as [`ExactCurve::read`] takes them back.
+    pub(crate) fn write(&self, out: &mut Vec<f64>) {
+        out.extend(self.xs.iter().chain(&self.ys).chain(&self.slopes));
+    }
+
+    /// The curve that [`ExactCurve::write`] wrote at the start of `t`.
+    ///
+    /// # Panics
+    /// If `t` has fewer than `3 N` numbers.
+    #[inline(always)]
+    pub(crate) fn read(t: &[f64]) -> Self {
+        let t = &t[..3 * N];
+        let at = |i: usize| -> [f64; N] { std::array::from_fn(|j| t[i * N + j]) };
+        ExactCurve {
+            xs: at(0),
+            ys: at(1),
+            slopes: at(2),
+        }
+    }
+
     /// The curve with each number broadcast to every lane of `V`, for [`WideCurve::eval`].
     ///
     /// # Safety
@@ -613,6 +657,63 @@ mod tests {
             refused_differ,
             widths * curves.iter().filter(|c| !c.1).count()
         );
+    }
+
+    /// A curve padded to more points ([`ExactCurve::padded`]) gives the bits of the curve, one
+    /// at a time and wide, at the points, next to them, at zeros, infinities and NaNs; it
+    /// survives being written and read back; the zero curve pads only to itself.
+    #[test]
+    fn padded_curves_evaluate_to_the_same_bits() {
+        let neg_nan = f64::from_bits(f64::NAN.to_bits() | 1 << 63);
+        let mut xs = vec![
+            f64::NAN,
+            neg_nan,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            0.0,
+            -0.0,
+        ];
+        xs.extend(uniform(778, 300, 4.0));
+        let curves: [Vec<(f64, f64)>; 3] = [
+            vec![(-1.0, 0.5), (2.0, 1.0)],
+            vec![(-1.0, -0.1), (0.0, 0.0), (1.0, 0.1)],
+            vec![(0.0, 0.0), (1.0, 1.0), (1.0, -0.0)],
+        ];
+        for pts in &curves {
+            for &(x, _) in pts {
+                let up = f64::from_bits(x.to_bits() + 1);
+                xs.extend([x, -x, up, -up, x * 0.999, x * 1.001]);
+            }
+        }
+        /// `e` and its padding to `M` points: the same bits at `xs`, wide and one at a time.
+        fn same<const N: usize, const M: usize>(e: &ExactCurve<N>, xs: &[f64]) {
+            let p = e.padded::<M>().expect("pads to more points");
+            let mut t = Vec::new();
+            p.write(&mut t);
+            assert_eq!(t.len(), 3 * M);
+            assert!(ExactCurve::<M>::read(&t).same_bits(&p));
+            let (got, want) = wide_bits(e, xs, true);
+            let (got_p, want_p) = wide_bits(&p, xs, true);
+            assert_eq!(want, want_p, "{e:?} as {p:?}");
+            assert_eq!(got, got_p, "{e:?} as {p:?}, wide");
+        }
+        for pts in &curves {
+            let c = Curve::new(pts).unwrap();
+            if pts.len() == 2 {
+                let e = ExactCurve::<2>::new(&c).unwrap();
+                same::<2, 2>(&e, &xs);
+                same::<2, 3>(&e, &xs);
+                same::<2, 4>(&e, &xs);
+                assert!(e.padded::<0>().is_none() && e.padded::<1>().is_none());
+            } else {
+                let e = ExactCurve::<3>::new(&c).unwrap();
+                same::<3, 4>(&e, &xs);
+                assert!(e.padded::<2>().is_none());
+            }
+        }
+        let zero = ExactCurve::<0>::new(&Curve::zero()).unwrap();
+        assert!(zero.padded::<0>().is_some());
+        assert!(zero.padded::<2>().is_none() && zero.padded::<4>().is_none());
     }
 
     /// The bits of `e` at `xs`: `WideCurve::eval`'s in each width the CPU has (AVX-512, AVX2;

@@ -269,6 +269,43 @@ macro_rules! exact_pairs {
                 }
             }
 
+            /// The point counts of the two curves.
+            fn counts(&self) -> (usize, usize) {
+                match self {
+                    $(ExactPair::$v(..) => ($a, $b),)*
+                }
+            }
+
+            /// The pair with its curves padded to `a` and `b` points ([`ExactCurve::padded`]:
+            /// the same force everywhere, bit for bit), if they pad to them.
+            fn padded(&self, a: usize, b: usize) -> Option<ExactPair> {
+                struct Pad(usize, usize);
+                impl PairFn for Pad {
+                    type Out = Option<ExactPair>;
+                    fn call<const A: usize, const B: usize>(
+                        self,
+                        k: ExactCurve<A>,
+                        z: ExactCurve<B>,
+                    ) -> Option<ExactPair> {
+                        match (self.0, self.1) {
+                            $(($a, $b) => Some(ExactPair::$v(k.padded()?, z.padded()?)),)*
+                            _ => None,
+                        }
+                    }
+                }
+                self.visit(Pad(a, b))
+            }
+
+            /// Appends the numbers of both curves to `out` ([`ExactCurve::write`]).
+            fn write(&self, out: &mut Vec<f64>) {
+                match self {
+                    $(ExactPair::$v(k, z) => {
+                        k.write(out);
+                        z.write(out);
+                    })*
+                }
+            }
+
             /// `f` called with the two curves, at their point counts.
             #[inline(always)]
             fn visit<F: PairFn>(self, f: F) -> F::Out {
@@ -4742,9 +4779,9 @@ mod tests {
     }
 
     /// Networks of springs and dampers, with BUTs or LNLs among them, take the pull step on an
-    /// AVX-512 CPU (and only there, and not with both BUTs and LNLs, or two pairs of curves, or
-    /// curves that do not evaluate eight at a time), and it
-    /// gives the bits of the compact or gather step at every step: positions, outputs, and the
+    /// AVX-512 CPU (and only there, and not with both BUTs and LNLs, or curves that do not
+    /// evaluate eight at a time or do not pad to one point count, or pairs of curves mixed in
+    /// most rows), and it gives the bits of the compact or gather step at every step: positions, outputs, and the
     /// link forces `link_force` reads after each block, whether `process` and `process_observed`
     /// take turns on one engine or not. The BUTs come into and out of contact, with the MAS and
     /// the CEL at either end. A BUT or LNL network's rows give the same bits whether every row
@@ -4753,7 +4790,9 @@ mod tests {
     #[test]
     fn the_pull_step_gives_the_other_steps_bits() {
         let avx512 = Avx512::detect().is_some();
-        // refused: a BUT and an LNL together, two pairs of curves, a curve with a jump first
+        // refused: a BUT and an LNL together, a zero curve with curves that are not, a curve
+        // with a jump first, pairs of curves mixed in every row; taken: two pairs of curves of
+        // other point counts
         let mut both = lnl_springs(1, 40, 0);
         both.links[6].law = Interaction::But {
             k: 0.01,
@@ -4765,6 +4804,23 @@ mod tests {
             lk: Curve::new(&[(-1.0, -0.01), (1.0, 0.01)]).unwrap(),
             lz: Curve::new(&[(-1.0, 0.0), (1.0, 0.0)]).unwrap(),
         };
+        let mut zero = two.clone();
+        zero.links[5].law = Interaction::Lnl {
+            lk: Curve::new(&[(-1.0, -0.01), (1.0, 0.01)]).unwrap(),
+            lz: Curve::zero(),
+        };
+        let mut every_row = lnl_springs(1, 200, 1);
+        for (i, link) in every_row.links.iter_mut().enumerate() {
+            let slope = [0.01, 0.02, 0.03, 0.04][i % 4];
+            link.law = Interaction::Lnl {
+                lk: Curve::new(&[(-1.0, -slope), (1.0, slope)]).unwrap(),
+                lz: Curve::zero(),
+            };
+        }
+        assert_eq!(
+            Engine::new(&two).k.pull.map(|p| p.curve_pairs()),
+            avx512.then_some(2)
+        );
         let jump = springs(
             1,
             40,
@@ -4773,13 +4829,13 @@ mod tests {
                 lz: Curve::new(&[]).unwrap(),
             }),
         );
-        for net in [both, two, jump] {
+        for net in [both, zero, jump, every_row] {
             assert!(Engine::new(&net).k.pull.is_none());
         }
         assert!(Engine::new(&springs(1, 8, None)).k.pull.is_none()); // (fewer than PULL_MIN MAS)
         let mut toggled = 0;
-        // (kinds: 0 springs and dampers, 1 BUTs among them, 2 to 4 LNL networks of `mix` 0 to 2,
-        // 5 one BUT among springs and dampers)
+        // (kinds: 0 springs and dampers, 1 BUTs among them, 2 to 5 LNL networks of `mix` 0 to 3,
+        // 6 one BUT among springs and dampers)
         for (seed, n, kind) in [
             (1, 16, 0),
             (2, 40, 0),
@@ -4797,12 +4853,15 @@ mod tests {
             (14, 500, 3),
             (15, 40, 4),
             (16, 500, 4),
-            (17, 40, 5),
-            (18, 500, 5),
+            (19, 40, 5),
+            (20, 123, 5),
+            (21, 500, 5),
+            (17, 40, 6),
+            (18, 500, 6),
         ] {
             let net = match kind {
                 0 => springs(seed, n, None),
-                1 | 5 => but_springs(seed, n, kind == 1),
+                1 | 6 => but_springs(seed, n, kind == 1),
                 _ => lnl_springs(seed, n, kind - 2),
             };
             let but_links: Vec<LinkId> = (0..net.links.len() as u32)
@@ -4822,11 +4881,17 @@ mod tests {
                 // (every link LNL, or every link but the FROs to the SOL, of one `Z`)
                 assert_eq!(
                     pull.shared_params(),
-                    kind == 3 || kind == 4,
+                    kind == 3 || kind == 4 || kind == 5,
                     "network {seed}"
                 );
+                // (four pairs of curves, in rows of one pair and rows of several)
+                if kind == 5 {
+                    assert_eq!(pull.curve_pairs(), 4, "network {seed}");
+                    let (one, several) = pull.rows_of_pairs();
+                    assert!(one > 0 && (n < 500 || several > 0), "network {seed}");
+                }
                 // (no row has a spring; one row in many has the BUT)
-                if kind == 3 || (kind == 5 && n >= 500) {
+                if kind == 3 || (kind == 6 && n >= 500) {
                     assert!(!pull.has_full_rows(), "network {seed}");
                 }
                 pull.toggle_full_rows();
@@ -4881,13 +4946,33 @@ mod tests {
     /// [`springs`] with LNL links of one pair of curves, neither odd, the viscous one not zero
     /// at zero: `mix` 0, every fourth link (MAS to MAS, some to the CEL), a MAS's link to the
     /// SOL and the ENX's link; 1, every link; 2, every link but the FROs that tie each MAS to
-    /// the SOL (all of one `Z`; a row has one or none).
+    /// the SOL (all of one `Z`; a row has one or none); 3, as 2 with four pairs of curves of
+    /// other point counts (padded to one), each third of the links of its own pair but every
+    /// seventh link, of the fourth.
     fn lnl_springs(seed: u64, n: usize, mix: u8) -> Network {
         let mut net = springs(seed, n, None);
         let lnl = Interaction::Lnl {
             lk: Curve::new(&[(-0.01, -8e-4), (0.0, 0.0), (0.004, 1e-4), (0.02, 3e-3)]).unwrap(),
             lz: Curve::new(&[(-0.002, -4e-6), (0.001, 1e-6), (0.003, 0.0)]).unwrap(),
         };
+        let pair = |k: &[(f64, f64)], z: &[(f64, f64)]| Interaction::Lnl {
+            lk: Curve::new(k).unwrap(),
+            lz: Curve::new(z).unwrap(),
+        };
+        let others = [
+            pair(
+                &[(-0.01, -5e-4), (0.0, 1e-6), (0.01, 6e-4)],
+                &[(-0.002, -3e-6), (0.002, 2e-6)],
+            ),
+            pair(
+                &[(-0.02, -1e-3), (0.03, 2e-3)],
+                &[(-0.001, -2e-6), (0.0, 1e-7), (0.004, 5e-6)],
+            ),
+            pair(
+                &[(-0.01, -6e-4), (0.0, -1e-5), (0.0, 1e-5), (0.01, 7e-4)],
+                &[(-0.003, -1e-6), (0.003, 1e-6)],
+            ),
+        ];
         let count = net.links.len();
         for (i, link) in net.links.iter_mut().enumerate() {
             let grounding = link.law == Interaction::Fro { z: 1e-4 };
@@ -4896,7 +4981,11 @@ mod tests {
                 1 => true,
                 _ => !grounding,
             } {
-                link.law = lnl.clone();
+                link.law = match (mix, i % 7, i * 3 / count) {
+                    (3, 3, _) => others[2].clone(),
+                    (3, _, 1 | 2) => others[i * 3 / count - 1].clone(),
+                    _ => lnl.clone(),
+                };
             }
         }
         net

@@ -396,6 +396,13 @@ fn spring_networks_equal_the_reference() {
         let moved = equals_reference_in_blocks(&net, 1500, &what);
         assert!(moved > net.outputs.len() / 2, "{what}");
     }
+    // with LNL links of four pairs of curves of different point counts
+    for (seed, n, inertia) in [(20, 40, 0), (21, 333, 1), (22, 700, 2)] {
+        let net = lnl_pairs_network(seed, n, inertia);
+        let what = format!("LNL of four pairs, seed {seed}, {n} MAS, inertia {inertia}");
+        let moved = equals_reference_in_blocks(&net, 1500, &what);
+        assert!(moved > net.outputs.len() / 2, "{what}");
+    }
 }
 
 /// Membranes that take the grid step on an AVX-512 CPU (`engine/grid.rs`: every force in

@@ -1882,7 +1882,7 @@ impl Sheet {
 }
 
 /// The grid step of a block on the pool's threads. The rows (in the grid's row count: the
-/// sheets' rows one after the other, [`Grid::pieces`]) are cut into `shares[t]`, the chunks of
+/// sheets' rows one after the other, [`Grid::parts`]) are cut into `shares[t]`, the chunks of
 /// thread `t` ([`Grid::partition`]). In each step thread `t` claims the chunks of its own share
 /// first, then whatever is left of the others', each to exactly one thread, `claims[q]` counting
 /// share `q`'s ([`Claim::claimed`]):

@@ -34,11 +34,15 @@
 //! oriented, an LNL's curves need not be odd), so a lane whose MAS is end 2 of such a link
 //! computes it from the reference's operands, negated exactly, and negates the force: BUT terms
 //! in [`sum_but`] (with the threshold's sign turned, and the contact test read from the sign of
-//! `d + S`), LNL terms in [`sum_lnl`] (the network's one pair of curves, eight at a time as the
-//! grid step evaluates them); each function proves its bits. The kind of terms a network has
-//! ([`Terms`]: springs and dampers, with BUTs, or with LNLs) chooses the sum once per step; a
-//! network with both BUT and LNL links, or LNL links of several curves or of curves that do not
-//! evaluate eight at a time, keeps the other steps. The loads and shuffles are AVX-512 (the CPU's
+//! `d + S`), LNL terms in [`sum_lnl`] (eight at a time as the grid step evaluates them); each
+//! function proves its bits. A network of several pairs of LNL curves evaluates them as one shape,
+//! each curve padded to the most points of any (the same bits: `ExactCurve::padded`); a row reads
+//! its pair from a table, or evaluates each of its pairs and keeps each in its lanes when its LNL
+//! lanes have several ([`RowCurves`]). The kind of terms a network has ([`Terms`]: springs and
+//! dampers, with BUTs, or with LNLs of one pair or of a table) chooses the sum once per step; a
+//! network with both BUT and LNL links, or LNL curves that do not evaluate eight at a time or do
+//! not pad to one point count (a zero curve among curves that are not), or pairs of curves mixed
+//! in most rows, keeps the other steps. The loads and shuffles are AVX-512 (the CPU's
 //! proof is an [`Avx512`] token). A CPU with AVX2 but not AVX-512 takes the same rows four lanes at a time
 //! ([`avx2`]), on networks of REF links only; without either the network keeps the compact or
 //! gather step.
@@ -50,6 +54,7 @@
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
 
+use std::collections::HashMap;
 #[cfg(target_arch = "x86_64")]
 use std::hint::black_box;
 use std::ops::Range;
@@ -74,6 +79,11 @@ enum Isa {
     /// Made only where [`Simd::detect`](super::Simd) found AVX2 on this CPU.
     Avx2,
 }
+
+/// [`Pull::row_curves`] of a row with no LNL lane.
+const NO_LNL: u32 = u32::MAX;
+/// The bit of [`Pull::row_curves`] that marks a row whose LNL lanes have several pairs of curves.
+const PARTS: u32 = 1 << 31;
 
 /// MAS per group: the lanes of one AVX-512 vector.
 const LANES: usize = 8;
@@ -121,9 +131,9 @@ enum CelTerm {
     /// A BUT's `g` from the CEL's side: the other end, `K`, `Z`, the threshold `S` (negated where
     /// the CEL is end 2), and whether it is end 2
     But(u32, f64, f64, f64, bool),
-    /// An LNL's `g` from the CEL's side (the network's curves): the other end, and whether the
-    /// CEL is end 2
-    Lnl(u32, bool),
+    /// An LNL's `g` from the CEL's side: the other end, whether the CEL is end 2, and the
+    /// link's pair of curves (in [`Pull::pairs`])
+    Lnl(u32, bool, u32),
     /// ENF input `i` (its sample is added)
     Input(u32),
 }
@@ -142,9 +152,22 @@ pub(super) struct Pull {
     /// The `S` of each row's BUT lanes, negated where the lane's MAS is end 2 (`0.0` in the
     /// other lanes), when the network has a BUT; else empty.
     thresholds: Vec<[f64; LANES]>,
-    /// The curves of every LNL link, when the network has LNL links (all of one pair of curves
-    /// that evaluate eight at a time).
+    /// When the network has LNL links (of curves that evaluate eight at a time): their pair of
+    /// curves when they share one; else the first pair padded to the point counts of the
+    /// `table` ([`ExactPair::padded`]), the loop's shape.
     curves: Option<ExactPair>,
+    /// The network's distinct pairs of LNL curves, as declared (the CEL's terms evaluate them).
+    pairs: Vec<ExactPair>,
+    /// With several pairs: each pair padded to the most points of any ([`ExactPair::write`]),
+    /// one after another; else empty.
+    table: Vec<f64>,
+    /// With several pairs, the LNL curves of each row ([`RowCurves`]): [`NO_LNL`] when the row
+    /// has no LNL lane; the position in `table` of the pair of all its LNL lanes when they share
+    /// one; else [`PARTS`] and the position in `parts` of the row's *parts*. Else empty.
+    row_curves: Vec<u32>,
+    /// Runs of parts, each part the position of a pair in `table` and the row's LNL lanes of that
+    /// pair, a run ended by lanes `0`.
+    parts: Vec<(u32, u8)>,
     /// Whether every row computes the kind of terms that only some rows may have: the BUTs of a
     /// BUT network ([`sum_but`]), the springs and dampers of an LNL network ([`sum_lnl`]). If
     /// not, a row computes them only if it has one ([`Pull::computes_full_rows`] decides).
@@ -189,22 +212,57 @@ impl Pull {
         }
         let has_k = |l: Law| matches!(l, Law::Res | Law::Ref | Law::But);
         let has_z = |l: Law| matches!(l, Law::Fro | Law::Ref | Law::But);
-        // (one pair of curves for every LNL link, which evaluates eight at a time; not with a
-        // BUT: a group's sum computes one kind of nonlinear term)
+        // (not with a BUT: a group's sum computes one kind of nonlinear term)
         if law.contains(&Law::But) && law.contains(&Law::Lnl) {
             return None;
         }
-        let mut curves: Option<ExactPair> = None;
+        // The distinct pairs of LNL curves, each of which evaluates eight at a time, and the
+        // pair of each LNL law (`pair_of`, by index in `k.lnl`).
+        let mut pairs: Vec<ExactPair> = Vec::new();
+        let mut pair_of = vec![u32::MAX; k.lnl.len()];
+        let mut seen: HashMap<Vec<u64>, u32> = HashMap::new();
         for l in (0..k.nl).filter(|&l| law[l] == Law::Lnl) {
-            match &k.lnl[k.lnl_of[l] as usize] {
-                Lnl::Exact(pair) if pair.widens() => match &curves {
-                    Some(first) if !first.same_bits(pair) => return None,
-                    Some(_) => {}
-                    None => curves = Some(*pair),
-                },
-                _ => return None,
+            let i = k.lnl_of[l] as usize;
+            if pair_of[i] != u32::MAX {
+                continue;
             }
+            let Lnl::Exact(pair) = &k.lnl[i] else {
+                return None;
+            };
+            if !pair.widens() {
+                return None;
+            }
+            // (the point counts, then the numbers' bits: the same key for the same curves)
+            let (a, b) = pair.counts();
+            let mut numbers = Vec::new();
+            pair.write(&mut numbers);
+            let key = [a as u64, b as u64]
+                .into_iter()
+                .chain(numbers.iter().map(|v| v.to_bits()))
+                .collect();
+            pair_of[i] = *seen.entry(key).or_insert_with(|| {
+                pairs.push(*pair);
+                (pairs.len() - 1) as u32
+            });
         }
+        // Several pairs evaluate as one shape: the most points of any, each padded to it.
+        let (a, b) = (pairs.iter().map(ExactPair::counts))
+            .fold((0, 0), |(a, b), (x, y)| (a.max(x), b.max(y)));
+        let mut table = Vec::new();
+        let curves = match &pairs[..] {
+            [] => None,
+            [one] => Some(*one),
+            [first, ..] => {
+                for pair in &pairs {
+                    pair.padded(a, b)?.write(&mut table);
+                }
+                Some(first.padded(a, b)?)
+            }
+        };
+        if table.len() >= PARTS as usize {
+            return None; // (`row_curves` are 31-bit positions)
+        }
+        let lnl_pair = |l: usize| pair_of[k.lnl_of[l] as usize];
         // The terms of mobile material `s`, in summing order: `Ok((other end, link, end 1))`, with
         // whether `s` is end 1, then `Err(input)`.
         let terms = |s: usize| {
@@ -238,6 +296,10 @@ impl Pull {
             enf: Vec::new(),
             thresholds: Vec::new(),
             curves,
+            pairs,
+            table,
+            row_curves: Vec::new(),
+            parts: Vec::new(),
             full_rows: false,
             cel_off: vec![0],
             cel_terms: Vec::new(),
@@ -247,6 +309,8 @@ impl Pull {
             let (kk, zz) = first.map_or((0.0, 0.0), |l| (k.lk[l], k.lz[l]));
             p.params.push([[kk; LANES], [zz; LANES]]);
         }
+        // (with several pairs: the parts of the rows, and the rows with an LNL lane)
+        let mut evaluations = [0, 0];
         for g in 0..k.n_mas.div_ceil(LANES) {
             let lanes = LANES * g..(LANES * (g + 1)).min(k.n_mas);
             let links: Vec<Vec<(u32, usize, bool)>> = lanes
@@ -264,6 +328,8 @@ impl Pull {
                 };
                 let mut params = [[0.0; LANES]; 2];
                 let mut thresholds = [0.0; LANES];
+                // (the row's LNL lanes of each pair, in the order of their first lane)
+                let mut parts: Vec<(u32, u8)> = Vec::new();
                 for (i, s) in lanes.clone().enumerate() {
                     let mut other = s as u32; // padding: the lane's own MAS, masked off
                     if let Some(&(o, l, end1)) = links[i].get(r) {
@@ -279,11 +345,34 @@ impl Pull {
                         if law[l] == Law::But {
                             thresholds[i] = threshold(l, end1);
                         }
+                        if law[l] == Law::Lnl {
+                            let pair = lnl_pair(l);
+                            match parts.iter_mut().find(|(p, _)| *p == pair) {
+                                Some((_, lanes)) => *lanes |= 1 << i,
+                                None => parts.push((pair, 1 << i)),
+                            }
+                        }
                     }
                     assert!((other as usize) < k.nm);
                     row.at[i] = 16 * other;
                 }
                 p.rows.push(row);
+                if !p.table.is_empty() {
+                    evaluations[0] += parts.len();
+                    evaluations[1] += usize::from(!parts.is_empty());
+                    let at = |pair: u32| pair * 3 * (a + b) as u32;
+                    p.row_curves.push(match parts[..] {
+                        [] => NO_LNL,
+                        [(pair, _)] => at(pair),
+                        _ => {
+                            let start = p.parts.len() as u32;
+                            p.parts
+                                .extend(parts.iter().map(|&(pair, lanes)| (at(pair), lanes)));
+                            p.parts.push((0, 0));
+                            PARTS | start
+                        }
+                    });
+                }
                 if !uniform {
                     p.params.push(params);
                 }
@@ -303,11 +392,18 @@ impl Pull {
                 Ok((other, l, end1)) if law[l] == Law::But => {
                     CelTerm::But(other, k.lk[l], k.lz[l], threshold(l, end1), !end1)
                 }
-                Ok((other, l, end1)) if law[l] == Law::Lnl => CelTerm::Lnl(other, !end1),
+                Ok((other, l, end1)) if law[l] == Law::Lnl => {
+                    CelTerm::Lnl(other, !end1, lnl_pair(l))
+                }
                 Ok((other, l, _)) => CelTerm::Link(other, law[l], k.lk[l], k.lz[l]),
                 Err(e) => CelTerm::Input(e),
             }));
             p.cel_off.push(p.cel_terms.len() as u32);
+        }
+        // (each part of a row evaluates its pair on the whole row: two pairs in every row ran at
+        // 1.25x the gather step on a random network, docs/BENCHMARKS.md, twenty-eighth session)
+        if p.parts.len() >= PARTS as usize || 2 * evaluations[0] > 5 * evaluations[1] {
+            return None;
         }
         p.full_rows = if but {
             Pull::computes_full_rows(&p.rows, |r| r.b != 0)
@@ -316,7 +412,8 @@ impl Pull {
         };
         p.recorded = k.recorded_links()?;
         assert!(p.cel_terms.iter().all(|t| match *t {
-            CelTerm::Link(j, ..) | CelTerm::But(j, ..) | CelTerm::Lnl(j, _) => (j as usize) < k.nm,
+            CelTerm::Link(j, ..) | CelTerm::But(j, ..) => (j as usize) < k.nm,
+            CelTerm::Lnl(j, _, pair) => (j as usize) < k.nm && (pair as usize) < p.pairs.len(),
             CelTerm::Input(i) => (i as usize) < k.enf.len(),
         }));
         assert!(p.enf.iter().all(|&(_, i)| (i as usize) < k.enf.len()));
@@ -352,6 +449,21 @@ impl Pull {
     }
 
     /// Whether every row has the same `K` and `Z` (one row of parameters for them all).
+    #[cfg(test)]
+    pub(super) fn curve_pairs(&self) -> usize {
+        self.pairs.len()
+    }
+
+    /// How many rows have LNL lanes of one pair, of several (with several pairs).
+    #[cfg(test)]
+    pub(super) fn rows_of_pairs(&self) -> (usize, usize) {
+        let with = |f: fn(u32) -> bool| self.row_curves.iter().filter(|&&r| f(r)).count();
+        (
+            with(|r| r != NO_LNL && r & PARTS == 0),
+            with(|r| r != NO_LNL && r & PARTS != 0),
+        )
+    }
+
     #[cfg(test)]
     pub(super) fn shared_params(&self) -> bool {
         self.params.len() == 1
@@ -559,9 +671,9 @@ impl Pull {
                             f -= kk * t + zz * (v - vj);
                         }
                     }
-                    CelTerm::Lnl(j, end2) => {
+                    CelTerm::Lnl(j, end2, pair) => {
                         let [xj, vj] = pc[j as usize];
-                        let curves = self.curves.as_ref().expect("an LNL term has curves");
+                        let curves = &self.pairs[pair as usize];
                         // (the reference's `d` and `v` and force, negated from end 2: see
                         // `sum_lnl`)
                         let (d, dv) = (x - xj, v - vj);
@@ -863,6 +975,92 @@ struct Curves<const A: usize, const B: usize> {
     full_rows: bool,
 }
 
+/// LNL terms of several pairs of curves, each padded to `A` and `B` points ([`Pull::table`]),
+/// and RES, FRO and REF terms ([`sum_lnl`], as [`Curves`]); each row reads its pair, or its
+/// parts' pairs ([`RowCurves`]).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+struct CurveTable<const A: usize, const B: usize> {
+    full_rows: bool,
+}
+
+/// The LNL forces of a row's LNL lanes ([`sum_lnl`]).
+#[cfg(target_arch = "x86_64")]
+trait LnlForces {
+    /// The force `LK(d) + LZ(dv)` of each LNL lane of row `r` (counted from the first row the
+    /// sum was given), from the reference's operands `d` and `dv`; any value in the other lanes.
+    ///
+    /// # Safety
+    /// The CPU has AVX-512F and the calling function is compiled with it.
+    unsafe fn forces(&self, r: usize, d: __m512d, dv: __m512d) -> __m512d;
+}
+
+#[cfg(target_arch = "x86_64")]
+impl<const A: usize, const B: usize> LnlForces for Curves<A, B> {
+    #[inline(always)]
+    unsafe fn forces(&self, _: usize, d: __m512d, dv: __m512d) -> __m512d {
+        // SAFETY: the caller's promise (`V8`).
+        unsafe { _mm512_add_pd(self.k.eval(V8(d)).0, self.z.eval(V8(dv)).0) }
+    }
+}
+
+/// [`CurveTable`] on the rows of one sum: [`Pull::row_curves`] from its first row, and the
+/// pull step's `table` and `parts`.
+#[cfg(target_arch = "x86_64")]
+struct RowCurves<'t, const A: usize, const B: usize> {
+    table: &'t [f64],
+    row_curves: &'t [u32],
+    parts: &'t [(u32, u8)],
+}
+
+#[cfg(target_arch = "x86_64")]
+impl<const A: usize, const B: usize> LnlForces for RowCurves<'_, A, B> {
+    /// The row's pair evaluated on the whole row, when its LNL lanes share one; else each part's
+    /// pair, kept in the part's lanes (the first part's everywhere, then each other part's in
+    /// its lanes). Each LNL lane has its own pair's force, as [`Curves`] computes it, from its
+    /// curves padded ([`ExactPair::padded`]: the same bits).
+    #[inline(always)]
+    unsafe fn forces(&self, r: usize, d: __m512d, dv: __m512d) -> __m512d {
+        let at = self.row_curves[r];
+        // SAFETY (all three): the caller's promise.
+        if at == NO_LNL {
+            return unsafe { _mm512_setzero_pd() };
+        }
+        if at & PARTS == 0 {
+            return unsafe { self.pair(at, d, dv) };
+        }
+        let mut parts = self.parts[(at & !PARTS) as usize..].iter();
+        let mut f = unsafe { _mm512_setzero_pd() };
+        for &(pair, lanes) in parts.by_ref() {
+            if lanes == 0 {
+                break;
+            }
+            f = unsafe { _mm512_mask_mov_pd(f, lanes, self.pair(pair, d, dv)) };
+        }
+        f
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl<const A: usize, const B: usize> RowCurves<'_, A, B> {
+    /// The force of the pair at `at` in the table, in every lane (a method, not a closure: a
+    /// closure is not compiled with its caller's target features, rust-lang/rust#58279).
+    ///
+    /// # Safety
+    /// As [`LnlForces::forces`].
+    #[inline(always)]
+    unsafe fn pair(&self, at: u32, d: __m512d, dv: __m512d) -> __m512d {
+        let t = &self.table[at as usize..at as usize + 3 * (A + B)];
+        let (k, z) = t.split_at(3 * A);
+        let (k, z) = (ExactCurve::<A>::read(k), ExactCurve::<B>::read(z));
+        // SAFETY: the caller's promise (`V8`).
+        unsafe {
+            let (k, z) = (k.wide::<V8>(), z.wide::<V8>());
+            _mm512_add_pd(k.eval(V8(d)).0, z.eval(V8(dv)).0)
+        }
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
 impl Terms for Springs {
     #[inline(always)]
@@ -914,7 +1112,52 @@ impl<const A: usize, const B: usize> Terms for Curves<A, B> {
         perm: (__m512i, __m512i),
     ) -> __m512d {
         // SAFETY: the caller's promise.
-        unsafe { sum_lnl(&pull.rows[rows], params, &self, base, x, v, perm) }
+        unsafe {
+            sum_lnl(
+                &pull.rows[rows],
+                params,
+                self.full_rows,
+                &self,
+                base,
+                x,
+                v,
+                perm,
+            )
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl<const A: usize, const B: usize> Terms for CurveTable<A, B> {
+    #[inline(always)]
+    unsafe fn sum<'p>(
+        self,
+        pull: &Pull,
+        rows: Range<usize>,
+        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+        base: *const u8,
+        x: __m512d,
+        v: __m512d,
+        perm: (__m512i, __m512i),
+    ) -> __m512d {
+        let forces = RowCurves::<A, B> {
+            table: &pull.table,
+            row_curves: &pull.row_curves[rows.clone()],
+            parts: &pull.parts,
+        };
+        // SAFETY: the caller's promise.
+        unsafe {
+            sum_lnl(
+                &pull.rows[rows],
+                params,
+                self.full_rows,
+                &forces,
+                base,
+                x,
+                v,
+                perm,
+            )
+        }
     }
 }
 
@@ -955,18 +1198,25 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
         // SAFETY: a pull step has `Isa::Avx512` only with the token, the CPU's proof of
         // AVX-512F, which `V8` and `groups_with` need.
         unsafe {
-            let curves = Curves {
-                k: k.wide::<V8>(),
-                z: z.wide::<V8>(),
-                full_rows: pull.full_rows,
-            };
-            pull.groups_with(curves, kernel, n, gr, prev, pc, params, next, pn);
+            let full_rows = pull.full_rows;
+            if pull.table.is_empty() {
+                let curves = Curves {
+                    k: k.wide::<V8>(),
+                    z: z.wide::<V8>(),
+                    full_rows,
+                };
+                pull.groups_with(curves, kernel, n, gr, prev, pc, params, next, pn);
+            } else {
+                let table = CurveTable::<A, B> { full_rows };
+                pull.groups_with(table, kernel, n, gr, prev, pc, params, next, pn);
+            }
         }
     }
 }
 
-/// [`sum`] for rows whose lanes `row.b` have LNL terms of the curves `c`, those of `row.flip`
-/// where the lane's MAS is the link's end 2.
+/// [`sum`] for rows whose lanes `row.b` have LNL terms, their forces from `c` (the network's one
+/// pair of curves, or each row's from a table), those of `row.flip` where the lane's MAS is the
+/// link's end 2.
 ///
 /// FORMALISM.md's LNL force is `f = LK(x1 - x2) + LZ(v)` (`ExactPair::force`, whose bits
 /// `WideCurve::eval` gives lane by lane). From end 1's side `d = x - xj` and `v - vj` are the
@@ -975,20 +1225,24 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
 /// flipped, exact), evaluates the curves on the reference's operands, and negates the force: `g
 /// = -f`, and `F - g = F + f`. The other lanes of a row are [`sum`]'s terms (a padding lane's
 /// `g` is `+0.0`: its curves' value at zero is not used). A row with no spring or damper lane
-/// skips them, unless `c.full_rows`: its other lanes are padding, whose `g` is `+0.0`
+/// skips them, unless `full_rows`: its other lanes are padding, whose `g` is `+0.0`
 /// either way (computed, it is the sum of two masked products, `+0.0 + +0.0`). An LNL lane reads
 /// no `K` or `Z`, so the rows of a network share one row of parameters when its other links
 /// have the same (`Pull::new`).
 ///
+/// Inlined always, and not compiled with AVX-512 as a function of its own: generic in `c`, it was
+/// not inlined into `groups_with` for a table, and ran slower (one A/B run: 0.92x).
+///
 /// # Safety
 /// As [`sum`].
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-#[inline]
-unsafe fn sum_lnl<'p, const A: usize, const B: usize>(
+#[inline(always)]
+#[allow(clippy::too_many_arguments)] // (the operands of `sum`)
+unsafe fn sum_lnl<'p>(
     rows: &[Row],
     params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
-    c: &Curves<A, B>,
+    full_rows: bool,
+    c: &impl LnlForces,
     base: *const u8,
     x: __m512d,
     v: __m512d,
@@ -1005,20 +1259,16 @@ unsafe fn sum_lnl<'p, const A: usize, const B: usize>(
         ))
     };
     let mut f = _mm512_setzero_pd();
-    for (row, [kr, zr]) in rows.iter().zip(params) {
+    for (r, (row, [kr, zr])) in rows.iter().zip(params).enumerate() {
         // SAFETY: the caller's promise.
         let (xj, vj) = unsafe { pairs(base, &row.at, xs, vs) };
         let d = _mm512_sub_pd(x, xj);
         let dv = _mm512_sub_pd(v, vj);
-        // SAFETY: the CPU has AVX-512F, and this function is compiled with it (`V8`).
-        let lnl = unsafe {
-            let (fk, fz) = (
-                c.k.eval(V8(flip(row.flip, d))),
-                c.z.eval(V8(flip(row.flip, dv))),
-            );
-            flip(row.flip, _mm512_add_pd(fk.0, fz.0))
-        };
-        let g = if c.full_rows || (row.k | row.z) != 0 {
+        // SAFETY: the CPU has AVX-512F, and this function is compiled with it.
+        let lnl = flip(row.flip, unsafe {
+            c.forces(r, flip(row.flip, d), flip(row.flip, dv))
+        });
+        let g = if full_rows || (row.k | row.z) != 0 {
             // SAFETY: eight `f64` each.
             let (kk, zz) = unsafe { (_mm512_loadu_pd(kr.as_ptr()), _mm512_loadu_pd(zr.as_ptr())) };
             let spring = _mm512_maskz_mul_pd(row.k, kk, d);
