@@ -610,22 +610,7 @@ mod tests {
             (vec![(-2.0, -0.0), (-2.0, 3.0), (5.0, -1.0)], false),
             (vec![(-1e-300, -1e300), (1e-300, 1e300), (1.0, 0.0)], false),
         ];
-        let neg_nan = f64::from_bits(f64::NAN.to_bits() | 1 << 63);
-        let mut xs = vec![
-            f64::NAN,
-            neg_nan,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            0.0,
-            -0.0,
-        ];
-        xs.extend(uniform(777, 500, 4.0));
-        for (pts, _) in &curves {
-            for &(x, _) in pts {
-                let up = f64::from_bits(x.to_bits() + 1);
-                xs.extend([x, -x, up, -up, x * 0.999, x * 1.001]);
-            }
-        }
+        let xs = probes(777, 500, curves.iter().map(|c| &c.0[..]));
         let mut refused_differ = 0;
         let mut widths = 0;
         for (pts, widens) in &curves {
@@ -664,27 +649,12 @@ mod tests {
     /// survives being written and read back; the zero curve pads only to itself.
     #[test]
     fn padded_curves_evaluate_to_the_same_bits() {
-        let neg_nan = f64::from_bits(f64::NAN.to_bits() | 1 << 63);
-        let mut xs = vec![
-            f64::NAN,
-            neg_nan,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            0.0,
-            -0.0,
-        ];
-        xs.extend(uniform(778, 300, 4.0));
         let curves: [Vec<(f64, f64)>; 3] = [
             vec![(-1.0, 0.5), (2.0, 1.0)],
             vec![(-1.0, -0.1), (0.0, 0.0), (1.0, 0.1)],
             vec![(0.0, 0.0), (1.0, 1.0), (1.0, -0.0)],
         ];
-        for pts in &curves {
-            for &(x, _) in pts {
-                let up = f64::from_bits(x.to_bits() + 1);
-                xs.extend([x, -x, up, -up, x * 0.999, x * 1.001]);
-            }
-        }
+        let xs = probes(778, 300, curves.iter().map(|c| &c[..]));
         /// `e` and its padding to `M` points: the same bits at `xs`, wide and one at a time.
         fn same<const N: usize, const M: usize>(e: &ExactCurve<N>, xs: &[f64]) {
             let p = e.padded::<M>().expect("pads to more points");
@@ -714,6 +684,29 @@ mod tests {
         let zero = ExactCurve::<0>::new(&Curve::zero()).unwrap();
         assert!(zero.padded::<0>().is_some());
         assert!(zero.padded::<2>().is_none() && zero.padded::<4>().is_none());
+    }
+
+    /// Abscissas to probe curves at: NaNs and infinities of both signs, the two zeros, `n` drawn
+    /// at random in `[-4, 4]`, and each point of `curves`, its opposite, the next `f64` of both,
+    /// and just before and after it.
+    fn probes<'c>(seed: u64, n: usize, curves: impl Iterator<Item = &'c [(f64, f64)]>) -> Vec<f64> {
+        let neg_nan = f64::from_bits(f64::NAN.to_bits() | 1 << 63);
+        let mut xs = vec![
+            f64::NAN,
+            neg_nan,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            0.0,
+            -0.0,
+        ];
+        xs.extend(uniform(seed, n, 4.0));
+        for pts in curves {
+            for &(x, _) in pts {
+                let up = f64::from_bits(x.to_bits() + 1);
+                xs.extend([x, -x, up, -up, x * 0.999, x * 1.001]);
+            }
+        }
+        xs
     }
 
     /// The bits of `e` at `xs`: `WideCurve::eval`'s in each width the CPU has (AVX-512, AVX2;

@@ -775,35 +775,41 @@ pub fn lnl_network(seed: u64, n: usize, inertia: u8, all: bool, uniform: bool) -
 }
 
 /// [`spring_network`] with every link LNL, of four pairs of curves of different point counts:
-/// the links of each third of the declaration order of its own pair (so that most rows of the
-/// pull step have one pair), and every seventh link of a fourth (so that some have several).
+/// the links of each third of the declaration order of its own pair (so that many rows of the
+/// pull step have one pair), and every 29th link of a fourth (so that some have several).
 pub fn lnl_pairs_network(seed: u64, n: usize, inertia: u8) -> Network {
     let mut net = spring_network(seed, n, 4, inertia, false);
     let pair = |k: &[(f64, f64)], z: &[(f64, f64)]| Interaction::Lnl {
         lk: Curve::new(k).expect("a curve"),
         lz: Curve::new(z).expect("a curve"),
     };
+    // (point counts 3 and 2, 2 and 4, 4 and 3, 2 and 2: every curve padded to 4 points)
     let pairs = [
         pair(
-            &[(-0.01, -4e-4), (0.0, 0.0), (0.004, 5e-5), (0.02, 1.5e-3)],
+            &[(-0.012, -5e-4), (0.0, 2e-6), (0.012, 4e-4)],
+            &[(-0.004, -5e-6), (0.004, 3e-6)],
+        ),
+        pair(
+            &[(-0.03, -1.2e-3), (0.02, 1e-3)],
+            &[
+                (-0.002, -4e-6),
+                (-0.001, -1e-6),
+                (0.001, 2e-6),
+                (0.003, 4e-6),
+            ],
+        ),
+        pair(
+            &[(-0.008, -3e-4), (0.0, 0.0), (0.004, 6e-5), (0.016, 1e-3)],
             &[(-0.002, -2e-6), (0.001, 5e-7), (0.003, 0.0)],
         ),
         pair(
-            &[(-0.01, -5e-4), (0.0, 1e-6), (0.01, 6e-4)],
-            &[(-0.002, -3e-6), (0.002, 2e-6)],
-        ),
-        pair(
-            &[(-0.02, -1e-3), (0.03, 2e-3)],
-            &[(-0.001, -2e-6), (0.0, 1e-7), (0.004, 5e-6)],
-        ),
-        pair(
-            &[(-0.01, -6e-4), (0.0, -1e-5), (0.0, 1e-5), (0.01, 7e-4)],
-            &[(-0.003, -1e-6), (0.003, 1e-6)],
+            &[(-0.05, -2e-3), (0.05, 2e-3)],
+            &[(-0.01, -1e-5), (0.01, 1e-5)],
         ),
     ];
     let count = net.links.len();
     for (i, link) in net.links.iter_mut().enumerate() {
-        let p = if i % 7 == 3 { 3 } else { i * 3 / count };
+        let p = if i % 29 == 3 { 3 } else { i * 3 / count };
         link.law = pairs[p].clone();
     }
     net
