@@ -401,7 +401,7 @@ impl Pull {
             p.cel_off.push(p.cel_terms.len() as u32);
         }
         // (each part of a row evaluates its pair on the whole row: two pairs in every row ran at
-        // 1.25x the gather step on a random network, docs/BENCHMARKS.md, twenty-eighth session)
+        // 1.4x the gather step on a random network, docs/BENCHMARKS.md, twenty-eighth session)
         if p.parts.len() >= PARTS as usize || 2 * evaluations[0] > 5 * evaluations[1] {
             return None;
         }
@@ -1029,9 +1029,8 @@ impl<const A: usize, const B: usize> LnlForces for RowCurves<'_, A, B> {
         if at & PARTS == 0 {
             return unsafe { self.pair(at, d, dv) };
         }
-        let mut parts = self.parts[(at & !PARTS) as usize..].iter();
         let mut f = unsafe { _mm512_setzero_pd() };
-        for &(pair, lanes) in parts.by_ref() {
+        for &(pair, lanes) in &self.parts[(at & !PARTS) as usize..] {
             if lanes == 0 {
                 break;
             }
