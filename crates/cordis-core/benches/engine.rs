@@ -35,7 +35,10 @@
 //!   counts in the unit of work); `random-lnl-mixed N`: LNL links of two pairs of curves (the
 //!   second 1.1 times as stiff), a link's pair chosen by its end 2, so mixed in nearly every
 //!   group's rows; `random-lnl-halves N`: two random networks of N/2 masses (each struck on
-//!   its mass N/4), the links of each of its own pair, tied by one LNL link.
+//!   its mass N/4), the links of each of its own pair, tied by one LNL link;
+//!   `random-lnl-struck N`: the LNL network and a hammer as `random-struck`'s;
+//!   `random-but-lnl N`: BUT links of threshold 0 and LNL links, a link's law chosen by its end
+//!   2, so mixed in nearly every group's rows.
 //!
 //! `threads [N [T [KIND...]]]` times a string of N masses, a membrane of about N masses (316x316
 //! for 100,000), a `pair` of membranes of about N/2 masses each (224x224) and a random network of
@@ -81,13 +84,18 @@ enum Law {
     /// Two random networks of N/2 masses, the LNL links of each of its own pair of curves (as
     /// `LnlMixed`'s), tied by one LNL link: rows of one pair
     LnlHalves,
+    /// LNL links and a hammer (the random network only)
+    LnlStruck,
+    /// BUT links of threshold 0 and LNL links, a link's law chosen by its end 2 (the random
+    /// network only): mixed in nearly every row
+    ButLnl,
 }
 
 impl Law {
     fn interaction(self) -> Interaction {
         match self {
             Law::Ref | Law::Struck => Interaction::Ref { k: K, z: Z },
-            Law::LnlMixed | Law::LnlHalves => Law::Lnl.interaction(),
+            Law::LnlMixed | Law::LnlHalves | Law::LnlStruck | Law::ButLnl => Law::Lnl.interaction(),
             Law::But => Interaction::But {
                 k: K,
                 z: Z,
@@ -426,7 +434,9 @@ fn random(n: usize, law: Law) -> Model {
                 Law::LnlMixed => j % 2 == 1,
                 _ => halves && i >= n / 2,
             };
-            let link = if second {
+            let link = if law == Law::ButLnl && j % 2 == 1 {
+                Interaction::But { k: K, z: Z, s: 0.0 }
+            } else if second {
                 lnl(1.1 * K)
             } else {
                 interaction.clone()
@@ -434,7 +444,7 @@ fn random(n: usize, law: Law) -> Model {
             net.add_link(link, a, masses[j]);
         }
     }
-    if law == Law::Struck {
+    if matches!(law, Law::Struck | Law::LnlStruck) {
         hammer(&mut net, masses[n / 3]);
     }
     if halves {
@@ -450,9 +460,11 @@ fn random(n: usize, law: Law) -> Model {
             Law::Struck => format!("random_struck_N{n}"),
             Law::LnlMixed => format!("random_lnl_mixed_N{n}"),
             Law::LnlHalves => format!("random_lnl_halves_N{n}"),
+            Law::LnlStruck => format!("random_lnl_struck_N{n}"),
+            Law::ButLnl => format!("random_but_lnl_N{n}"),
         },
         net,
-        masses: n + usize::from(law == Law::Struck),
+        masses: n + usize::from(matches!(law, Law::Struck | Law::LnlStruck)),
         out,
     }
 }
@@ -1255,7 +1267,8 @@ fn usage() -> ! {
         "usage: cargo bench -p cordis-core --bench engine -- [string [N]] [but [N]] [lnl [N]] \
          [membrane [R C | RxC]] [rimmed|free|struck|pair|graded R C | RxC] [strings S N | SxN] \
          [random [N]] [random-but [N]] [random-lnl [N]] [random-struck [N]] \
-         [random-lnl-mixed [N]] [random-lnl-halves [N]]...\n(no model: every default model)\n   \
+         [random-lnl-mixed [N]] [random-lnl-halves [N]] [random-lnl-struck [N]] \
+         [random-but-lnl [N]]...\n(no model: every default model)\n   \
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
          threads, default N = 100000 masses, T = 2)\n   \
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
@@ -1278,7 +1291,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "lnl" => Some(Law::Lnl),
             "membrane" | "rimmed" | "free" | "struck" | "pair" | "graded" | "random"
             | "random-but" | "random-lnl" | "random-struck" | "random-lnl-mixed"
-            | "random-lnl-halves" | "strings" => None,
+            | "random-lnl-halves" | "random-lnl-struck" | "random-but-lnl" | "strings" => None,
             _ => usage(),
         };
         let random_law = match kind {
@@ -1287,6 +1300,8 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "random-struck" => Law::Struck,
             "random-lnl-mixed" => Law::LnlMixed,
             "random-lnl-halves" => Law::LnlHalves,
+            "random-lnl-struck" => Law::LnlStruck,
+            "random-but-lnl" => Law::ButLnl,
             _ => Law::Ref,
         };
         let first = args.get(i).map(String::as_str);

@@ -4790,15 +4790,8 @@ mod tests {
     #[test]
     fn the_pull_step_gives_the_other_steps_bits() {
         let avx512 = Avx512::detect().is_some();
-        // refused: a BUT and an LNL together, a zero curve with curves that are not, a curve
-        // with a jump first, pairs of curves mixed in every row; taken: two pairs of curves of
-        // other point counts
-        let mut both = lnl_springs(1, 40, 0);
-        both.links[6].law = Interaction::But {
-            k: 0.01,
-            z: 0.0,
-            s: 0.0,
-        };
+        // refused: a zero curve with curves that are not, a curve with a jump first, pairs of
+        // curves mixed in every row; taken: two pairs of curves of other point counts
         let mut two = lnl_springs(1, 40, 0);
         two.links[5].law = Interaction::Lnl {
             lk: Curve::new(&[(-1.0, -0.01), (1.0, 0.01)]).unwrap(),
@@ -4829,13 +4822,14 @@ mod tests {
                 lz: Curve::new(&[]).unwrap(),
             }),
         );
-        for net in [both, zero, jump, every_row] {
+        for net in [zero, jump, every_row] {
             assert!(Engine::new(&net).k.pull.is_none());
         }
         assert!(Engine::new(&springs(1, 8, None)).k.pull.is_none()); // (fewer than PULL_MIN MAS)
         let mut toggled = 0;
         // (kinds: 0 springs and dampers, 1 BUTs among them, 2 to 5 LNL networks of `mix` 0 to 3,
-        // 6 one BUT among springs and dampers)
+        // 6 one BUT among springs and dampers, 7 BUTs and LNLs among them, 8 an LNL network of
+        // four pairs of curves and one BUT)
         for (seed, n, kind) in [
             (1, 16, 0),
             (2, 40, 0),
@@ -4858,10 +4852,16 @@ mod tests {
             (21, 500, 5),
             (17, 40, 6),
             (18, 500, 6),
+            (22, 16, 7),
+            (23, 123, 7),
+            (24, 500, 7),
+            (25, 40, 8),
+            (26, 500, 8),
         ] {
             let net = match kind {
                 0 => springs(seed, n, None),
                 1 | 6 => but_springs(seed, n, kind == 1),
+                7 | 8 => but_lnl_springs(seed, n, kind == 8),
                 _ => lnl_springs(seed, n, kind - 2),
             };
             let but_links: Vec<LinkId> = (0..net.links.len() as u32)
@@ -4885,10 +4885,14 @@ mod tests {
                     "network {seed}"
                 );
                 // (four pairs of curves, in rows of one pair and rows of several)
-                if kind == 5 {
+                if kind == 5 || kind == 8 {
                     assert_eq!(pull.curve_pairs(), 4, "network {seed}");
                     let (one, several) = pull.rows_of_pairs();
                     assert!(one > 0 && (n < 500 || several > 0), "network {seed}");
+                }
+                // (rows with BUT and LNL lanes both)
+                if kind == 7 || kind == 8 {
+                    assert!(pull.rows_of_buts_and_curves() > 0, "network {seed}");
                 }
                 // (no row has a spring; one row in many has the BUT)
                 if kind == 3 || (kind == 6 && n >= 500) {
@@ -5004,9 +5008,28 @@ mod tests {
                 i == 1
             };
             if but {
-                let s = [0.0, 0.004, -0.004, 0.01, -0.01][i % 5];
-                let k = if i % 3 == 0 { 0.0 } else { 0.04 };
-                link.law = Interaction::But { k, z: 1e-3, s };
+                link.law = but_of(i);
+            }
+        }
+        net
+    }
+
+    /// The BUT of [`but_springs`]'s link `i`: thresholds of both signs and zero, one in three
+    /// viscous only.
+    fn but_of(i: usize) -> Interaction {
+        let s = [0.0, 0.004, -0.004, 0.01, -0.01][i % 5];
+        let k = if i.is_multiple_of(3) { 0.0 } else { 0.04 };
+        Interaction::But { k, z: 1e-3, s }
+    }
+
+    /// [`lnl_springs`] with BUTs: of `mix` 0 (every fourth link LNL), every fourth link but
+    /// those, from link 3 (MAS to MAS, some to the CEL), so that rows have BUT, LNL, spring and
+    /// damper lanes; or (`hammer`) of `mix` 3 (four pairs of curves), link 1, between two MAS.
+    fn but_lnl_springs(seed: u64, n: usize, hammer: bool) -> Network {
+        let mut net = lnl_springs(seed, n, if hammer { 3 } else { 0 });
+        for (i, link) in net.links.iter_mut().enumerate() {
+            if (hammer && i == 1) || (!hammer && i % 4 == 3) {
+                link.law = but_of(i);
             }
         }
         net

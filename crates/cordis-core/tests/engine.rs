@@ -403,6 +403,21 @@ fn spring_networks_equal_the_reference() {
         let moved = equals_reference_in_blocks(&net, 1500, &what);
         assert!(moved > net.outputs.len() / 2, "{what}");
     }
+    // with BUT and LNL links together: among springs and dampers, or a hammer's BUT on an LNL
+    // network of four pairs
+    for (seed, n, inertia, hammer) in [
+        (23, 16, 0, false),
+        (24, 100, 1, false),
+        (25, 333, 2, false),
+        (26, 700, 3, false),
+        (27, 40, 0, true),
+        (28, 333, 3, true),
+    ] {
+        let net = but_lnl_network(seed, n, inertia, hammer);
+        let what = format!("BUT and LNL, seed {seed}, {n} MAS, inertia {inertia}, hammer {hammer}");
+        let moved = equals_reference_in_blocks(&net, 1500, &what);
+        assert!(moved > net.outputs.len() / 2, "{what}");
+    }
 }
 
 /// Membranes that take the grid step on an AVX-512 CPU (`engine/grid.rs`: every force in

@@ -38,11 +38,12 @@
 //! function proves its bits. A network of several pairs of LNL curves evaluates them as one shape,
 //! each curve padded to the most points of any (the same bits: `ExactCurve::padded`); a row reads
 //! its pair from a table, or evaluates each of its pairs and keeps each in its lanes when its LNL
-//! lanes have several ([`RowCurves`]). The kind of terms a network has ([`Terms`]: springs and
-//! dampers, with BUTs, or with LNLs of one pair or of a table) chooses the sum once per step; a
-//! network with both BUT and LNL links, or LNL curves that do not evaluate eight at a time or do
-//! not pad to one point count (a zero curve among curves that are not), or pairs of curves mixed
-//! in most rows, keeps the other steps. The loads and shuffles are AVX-512 (the CPU's
+//! lanes have several ([`RowCurves`]). A network with BUT and LNL links both sums its rows as an
+//! LNL network does, and a row with BUT lanes computes them as `sum_but` does. The kind of terms a
+//! network has ([`Terms`]: springs and dampers, with BUTs, or with LNLs, and BUTs if it has them,
+//! of one pair or of a table) chooses the sum once per step; a network with LNL curves that do not
+//! evaluate eight at a time or do not pad to one point count (a zero curve among curves that are
+//! not), or pairs of curves mixed in most rows, keeps the other steps. The loads and shuffles are AVX-512 (the CPU's
 //! proof is an [`Avx512`] token). A CPU with AVX2 but not AVX-512 takes the same rows four lanes at a time
 //! ([`avx2`]), on networks of REF links only; without either the network keeps the compact or
 //! gather step.
@@ -169,7 +170,7 @@ pub(super) struct Pull {
     /// pair, a run ended by lanes `0`.
     parts: Vec<(u32, u8)>,
     /// Whether every row computes the kind of terms that only some rows may have: the BUTs of a
-    /// BUT network ([`sum_but`]), the springs and dampers of an LNL network ([`sum_lnl`]). If
+    /// BUT network ([`sum_but`]), the springs, dampers and BUTs of an LNL network ([`sum_lnl`]). If
     /// not, a row computes them only if it has one ([`Pull::computes_full_rows`] decides).
     full_rows: bool,
     /// ENF inputs of group `g`: `enf[enf_bounds[g]..enf_bounds[g + 1]]`, `(lane, input)` in the
@@ -185,9 +186,9 @@ pub(super) struct Pull {
 
 impl Pull {
     /// The pull step of `k`, if it can take one: the kernel is compiled for AVX-512, and the
-    /// network has no BUT and LNL links together, and every LNL link has the same curves, which
-    /// evaluate eight at a time ([`ExactCurve::widens`]); or it is compiled for AVX2 and every
-    /// link is a REF ([`avx2`]); and there are at least [`PULL_MIN`] MAS.
+    /// network's LNL curves evaluate eight at a time ([`ExactCurve::widens`]), pad to one point
+    /// count ([`ExactPair::padded`]) and do not mix in most rows; or it is compiled for AVX2 and
+    /// every link is a REF ([`avx2`]); and there are at least [`PULL_MIN`] MAS.
     pub(super) fn new(k: &Kernel) -> Option<Pull> {
         let isa = match k.simd {
             #[cfg(target_arch = "x86_64")]
@@ -212,10 +213,6 @@ impl Pull {
         }
         let has_k = |l: Law| matches!(l, Law::Res | Law::Ref | Law::But);
         let has_z = |l: Law| matches!(l, Law::Fro | Law::Ref | Law::But);
-        // (not with a BUT: a group's sum computes one kind of nonlinear term)
-        if law.contains(&Law::But) && law.contains(&Law::Lnl) {
-            return None;
-        }
         // The distinct pairs of LNL curves, each of which evaluates eight at a time, and the
         // pair of each LNL law (`pair_of`, by index in `k.lnl`).
         let mut pairs: Vec<ExactPair> = Vec::new();
@@ -405,10 +402,12 @@ impl Pull {
         if p.parts.len() >= PARTS as usize || 2 * evaluations[0] > 5 * evaluations[1] {
             return None;
         }
-        p.full_rows = if but {
-            Pull::computes_full_rows(&p.rows, |r| r.b != 0)
+        // (with LNL links, whether the rows compute their springs and dampers, and BUTs, which
+        // have a spring; else whether they compute their BUTs)
+        p.full_rows = if p.curves.is_some() {
+            Pull::computes_full_rows(&p.rows, |r| (r.k | r.z) != 0)
         } else {
-            p.curves.is_some() && Pull::computes_full_rows(&p.rows, |r| (r.k | r.z) != 0)
+            but && Pull::computes_full_rows(&p.rows, |r| r.b != 0)
         };
         p.recorded = k.recorded_links()?;
         assert!(p.cel_terms.iter().all(|t| match *t {
@@ -435,6 +434,16 @@ impl Pull {
         2 * without < rows.len() || 16 * changes > rows.len()
     }
 
+    /// The BUT thresholds of `rows`, or none when the network has no BUT.
+    #[cfg(target_arch = "x86_64")]
+    fn row_thresholds(&self, rows: Range<usize>) -> &[[f64; LANES]] {
+        if self.thresholds.is_empty() {
+            &[]
+        } else {
+            &self.thresholds[rows]
+        }
+    }
+
     /// Whether every row computes the terms only some rows may have ([`Pull::full_rows`]).
     #[cfg(test)]
     pub(super) fn has_full_rows(&self) -> bool {
@@ -448,7 +457,7 @@ impl Pull {
         self.full_rows = !self.full_rows;
     }
 
-    /// Whether every row has the same `K` and `Z` (one row of parameters for them all).
+    /// How many distinct pairs of LNL curves the network has.
     #[cfg(test)]
     pub(super) fn curve_pairs(&self) -> usize {
         self.pairs.len()
@@ -464,6 +473,16 @@ impl Pull {
         )
     }
 
+    /// How many rows have BUT lanes and LNL lanes both.
+    #[cfg(test)]
+    pub(super) fn rows_of_buts_and_curves(&self) -> usize {
+        let buts = |r: &Row| r.b & r.k;
+        (self.rows.iter())
+            .filter(|r| buts(r) != 0 && r.b & !buts(r) != 0)
+            .count()
+    }
+
+    /// Whether every row has the same `K` and `Z` (one row of parameters for them all).
     #[cfg(test)]
     pub(super) fn shared_params(&self) -> bool {
         self.params.len() == 1
@@ -963,7 +982,7 @@ struct Springs;
 #[derive(Clone, Copy)]
 struct Buts<const SKIP: bool>;
 
-/// LNL terms of one pair of curves of `A` and `B` points, and RES, FRO and REF terms
+/// LNL terms of one pair of curves of `A` and `B` points, and RES, FRO, REF and BUT terms
 /// ([`sum_lnl`]; in every row when `full_rows`, else in the rows that have them). `full_rows`
 /// is a run-time flag here, unlike [`Buts`]'s `SKIP`, to keep one loop per pair of point counts;
 /// the loop tested a flag on each row before it too (whether the network had other links).
@@ -976,7 +995,7 @@ struct Curves<const A: usize, const B: usize> {
 }
 
 /// LNL terms of several pairs of curves, each padded to `A` and `B` points ([`Pull::table`]),
-/// and RES, FRO and REF terms ([`sum_lnl`], as [`Curves`]); each row reads its pair, or its
+/// and RES, FRO, REF and BUT terms ([`sum_lnl`], as [`Curves`]); each row reads its pair, or its
 /// parts' pairs ([`RowCurves`]).
 #[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
@@ -1110,6 +1129,7 @@ impl<const A: usize, const B: usize> Terms for Curves<A, B> {
         v: __m512d,
         perm: (__m512i, __m512i),
     ) -> __m512d {
+        let ts = pull.row_thresholds(rows.clone());
         // SAFETY: the caller's promise.
         unsafe {
             sum_lnl(
@@ -1117,6 +1137,7 @@ impl<const A: usize, const B: usize> Terms for Curves<A, B> {
                 params,
                 self.full_rows,
                 &self,
+                ts,
                 base,
                 x,
                 v,
@@ -1144,6 +1165,7 @@ impl<const A: usize, const B: usize> Terms for CurveTable<A, B> {
             row_curves: &pull.row_curves[rows.clone()],
             parts: &pull.parts,
         };
+        let ts = pull.row_thresholds(rows.clone());
         // SAFETY: the caller's promise.
         unsafe {
             sum_lnl(
@@ -1151,6 +1173,7 @@ impl<const A: usize, const B: usize> Terms for CurveTable<A, B> {
                 params,
                 self.full_rows,
                 &forces,
+                ts,
                 base,
                 x,
                 v,
@@ -1229,6 +1252,14 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
 /// no `K` or `Z`, so the rows of a network share one row of parameters when its other links
 /// have the same (`Pull::new`).
 ///
+/// A network with BUT links too has a row of thresholds `ts` per row (else `ts` is empty). A
+/// row's BUT lanes are those of `row.b` with a spring (`row.k`: every BUT has one, no LNL has).
+/// In a row that has one, those lanes compute [`sum_but`]'s terms with the same operations: `t =
+/// d + S` (a masked add; `t` is `d` in the other lanes, so the spring lanes' products are
+/// `sum`'s), the contact test on `t` with its sign flipped in `row.flip`, `g = K t + Z (v - vj)`
+/// set to `+0.0` out of contact; the LNL lanes then take `lnl`. A BUT lane evaluates the curves
+/// too, a value it does not use.
+///
 /// Inlined always, and not compiled with AVX-512 as a function of its own: generic in `c`, it was
 /// not inlined into `groups_with` for a table, and ran slower (one A/B run: 0.92x).
 ///
@@ -1242,12 +1273,16 @@ unsafe fn sum_lnl<'p>(
     params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
     full_rows: bool,
     c: &impl LnlForces,
+    ts: &[[f64; LANES]],
     base: *const u8,
     x: __m512d,
     v: __m512d,
     (xs, vs): (__m512i, __m512i),
 ) -> __m512d {
+    let but = !ts.is_empty();
+    assert!(!but || ts.len() == rows.len());
     let sign = _mm512_set1_epi64(i64::MIN);
+    let zero = _mm512_setzero_pd();
     // (`a` with its sign flipped in lanes `m`)
     let flip = |m: u8, a: __m512d| {
         _mm512_castsi512_pd(_mm512_mask_xor_epi64(
@@ -1270,9 +1305,23 @@ unsafe fn sum_lnl<'p>(
         let g = if full_rows || (row.k | row.z) != 0 {
             // SAFETY: eight `f64` each.
             let (kk, zz) = unsafe { (_mm512_loadu_pd(kr.as_ptr()), _mm512_loadu_pd(zr.as_ptr())) };
-            let spring = _mm512_maskz_mul_pd(row.k, kk, d);
-            let damper = _mm512_maskz_mul_pd(row.z, zz, dv);
-            _mm512_mask_mov_pd(_mm512_add_pd(spring, damper), row.b, lnl)
+            // (the row's BUT lanes: those of `row.b` with a spring, which no LNL lane has)
+            let buts = row.b & row.k;
+            if but && buts != 0 {
+                // SAFETY: eight `f64`.
+                let s = unsafe { _mm512_loadu_pd(ts[r].as_ptr()) };
+                let t = _mm512_mask_add_pd(d, buts, d, s);
+                // (BUT lanes out of contact: `!(u > 0)`, NaN included)
+                let off = _mm512_mask_cmp_pd_mask::<_CMP_NGT_UQ>(buts, flip(row.flip, t), zero);
+                let spring = _mm512_maskz_mul_pd(row.k, kk, t);
+                let damper = _mm512_maskz_mul_pd(row.z, zz, dv);
+                let g = _mm512_mask_mov_pd(_mm512_add_pd(spring, damper), off, zero);
+                _mm512_mask_mov_pd(g, row.b & !buts, lnl)
+            } else {
+                let spring = _mm512_maskz_mul_pd(row.k, kk, d);
+                let damper = _mm512_maskz_mul_pd(row.z, zz, dv);
+                _mm512_mask_mov_pd(_mm512_add_pd(spring, damper), row.b, lnl)
+            }
         } else {
             _mm512_maskz_mov_pd(row.b, lnl)
         };

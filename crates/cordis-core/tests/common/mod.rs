@@ -743,15 +743,37 @@ pub fn string_bank(
 pub fn but_network(seed: u64, n: usize, inertia: u8, step: usize) -> Network {
     let mut net = spring_network(seed, n, 4, inertia, false);
     for (i, link) in net.links.iter_mut().enumerate().step_by(step) {
-        let (k, z) = match link.law {
-            Interaction::Ref { k, z } => (k, z),
-            Interaction::Res { k } => (k, 5e-4),
-            Interaction::Fro { z } => (0.01, z),
-            _ => (0.01, 1e-4),
-        };
-        let k = if i % 4 == 3 { 0.0 } else { k };
-        let s = [0.0, 0.002, -0.002, 0.006, -0.006, 1e-4][i % 6];
-        link.law = Interaction::But { k, z, s };
+        link.law = but_of(i, &link.law);
+    }
+    net
+}
+
+/// The BUT that [`but_network`] makes of link `i` of law `law`.
+fn but_of(i: usize, law: &Interaction) -> Interaction {
+    let (k, z) = match *law {
+        Interaction::Ref { k, z } => (k, z),
+        Interaction::Res { k } => (k, 5e-4),
+        Interaction::Fro { z } => (0.01, z),
+        _ => (0.01, 1e-4),
+    };
+    let k = if i % 4 == 3 { 0.0 } else { k };
+    let s = [0.0, 0.002, -0.002, 0.006, -0.006, 1e-4][i % 6];
+    Interaction::But { k, z, s }
+}
+
+/// BUT and LNL links together: [`lnl_network`] (every third link LNL) with every fourth of the
+/// other links a BUT as [`but_network`]'s; or (`hammer`) [`lnl_pairs_network`] (every link LNL,
+/// of four pairs of curves) with link 1 a BUT, as a hammer's felt.
+pub fn but_lnl_network(seed: u64, n: usize, inertia: u8, hammer: bool) -> Network {
+    let mut net = if hammer {
+        lnl_pairs_network(seed, n, inertia)
+    } else {
+        lnl_network(seed, n, inertia, false, false)
+    };
+    for (i, link) in net.links.iter_mut().enumerate() {
+        if (hammer && i == 1) || (!hammer && i % 3 != 0 && i % 4 == 1) {
+            link.law = but_of(i, &Interaction::Ref { k: 0.02, z: 2e-4 });
+        }
     }
     net
 }
