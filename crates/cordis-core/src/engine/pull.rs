@@ -43,10 +43,10 @@
 //! network has ([`Terms`]: springs and dampers, with BUTs, or with LNLs, and BUTs if it has them,
 //! of one pair or of a table) chooses the sum once per step; a network with LNL curves that do not
 //! evaluate eight at a time or do not pad to one point count (a zero curve among curves that are
-//! not), or pairs of curves mixed in most rows, keeps the other steps. The loads and shuffles are AVX-512 (the CPU's
-//! proof is an [`Avx512`] token). A CPU with AVX2 but not AVX-512 takes the same rows four lanes at a time
-//! ([`avx2`]), on networks of REF links only; without either the network keeps the compact or
-//! gather step.
+//! not), or pairs of curves mixed in most rows, keeps the other steps. The loads and shuffles are
+//! AVX-512 (the CPU's proof is an [`Avx512`] token). A CPU with AVX2 but not AVX-512 takes the
+//! same rows four lanes at a time ([`avx2`]), on networks of REF links only; without either the
+//! network keeps the compact or gather step.
 //!
 //! CEL (few in practice) pull their terms one at a time with the same expressions; ENX read
 //! their signal; SOL never change. The pair buffers are rebuilt from the positions at the start
@@ -1311,7 +1311,8 @@ unsafe fn sum_lnl<'p>(
                 // SAFETY: eight `f64`.
                 let s = unsafe { _mm512_loadu_pd(ts[r].as_ptr()) };
                 let t = _mm512_mask_add_pd(d, buts, d, s);
-                // (BUT lanes out of contact: `!(u > 0)`, NaN included)
+                // (BUT lanes out of contact: `t`, its sign flipped from end 2, not `> 0`, NaN
+                // included)
                 let off = _mm512_mask_cmp_pd_mask::<_CMP_NGT_UQ>(buts, flip(row.flip, t), zero);
                 let spring = _mm512_maskz_mul_pd(row.k, kk, t);
                 let damper = _mm512_maskz_mul_pd(row.z, zz, dv);
