@@ -143,6 +143,13 @@ enum Mobiles {
 /// twenty-fifth session).
 const WINDOW: usize = 256;
 
+/// [`WINDOW`] for a network whose link terms are of mixed kinds ([`term_kinds`]): sorted by
+/// kinds within wider windows, more rows of the pull step have one kind of term (a random
+/// network of BUT and LNL links half and half: rows of both kinds of lanes 60 % with windows of
+/// 256 MAS, 12 % with 4,096), at the cost of some of the locality of its pairs' reads (the REF
+/// network ran about 5 % slower in windows of 4,096; docs/BENCHMARKS.md, thirtieth session).
+const WIDE_WINDOW: usize = 16 * WINDOW;
+
 /// How [`Kernel::build_with`] joins progressions into loops with exceptions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Joins {
@@ -1536,11 +1543,16 @@ impl Kernel {
         let mut order: Vec<usize> = (0..nm).collect();
         if mobiles == Mobiles::Local {
             // (stable: the other materials in declaration order within a kind)
-            let (window, walk) = local_order(net, rank);
+            let (kinds, mixed) = term_kinds(net);
+            let (window, walk) = local_order(net, rank, if mixed { WIDE_WINDOW } else { WINDOW });
             order.sort_by_cached_key(|&i| {
                 let m = &net.materials[i];
-                let d = if m.is_mobile() { degree[i] } else { 0 };
-                (rank(m), window[i], d, walk[i])
+                let (d, kinds) = if m.is_mobile() {
+                    (degree[i], kinds[i])
+                } else {
+                    (0, 0)
+                };
+                (rank(m), window[i], d, kinds, walk[i])
             });
         } else {
             // stable: declaration order within a kind and degree
@@ -3374,10 +3386,14 @@ fn stretches(
 ///
 /// The walk is breadth-first over the links whose two ends are mobile (a SOL tied to many
 /// materials would make them all neighbours), from each mobile material not yet reached, in
-/// declaration order. Materials of one `kind` are counted off into windows of [`WINDOW`] in the
+/// declaration order. Materials of one `kind` are counted off into windows of `size` in the
 /// walk's order. Only the storage order depends on it, and with it no sum: each material's terms
 /// are summed in FORMALISM.md's order whatever its slot.
-fn local_order(net: &Network, kind: impl Fn(&Material) -> u8) -> (Vec<usize>, Vec<usize>) {
+fn local_order(
+    net: &Network,
+    kind: impl Fn(&Material) -> u8,
+    size: usize,
+) -> (Vec<usize>, Vec<usize>) {
     let nm = net.materials.len();
     let mobile = |i: usize| net.materials[i].is_mobile();
     // the links between mobile materials, as lists of neighbours (compressed rows)
@@ -3430,11 +3446,65 @@ fn local_order(net: &Network, kind: impl Fn(&Material) -> u8) -> (Vec<usize>, Ve
         if counted.0 != k {
             counted = (k, 0);
         }
-        window[i] = counted.1 / WINDOW;
+        window[i] = counted.1 / size;
         counted.1 += 1;
     }
     (window, walk)
 }
+
+/// For [`Mobiles::Local`]: the kinds of each material's first [`KINDS_MAX`] link terms, in
+/// FORMALISM.md's order (the links' declaration order), as one number that sorts as the list
+/// (term `r`'s kind in bits `60 - 4 r..64 - 4 r`); and whether the kinds are mixed: at least one
+/// term in 16 of the mobile materials is not of the most common kind. A kind is 0 for RES, FRO
+/// and REF, 1 for BUT, and `2 + p` for an LNL of the `p`-th distinct pair of curves (the 14th and
+/// later pairs share 15).
+///
+/// Sorted by it within a window and a degree, the MAS of a pull-step group tend to have terms of
+/// one kind in each row: a row of BUT and LNL lanes would compute both kinds of force, a row of
+/// several pairs of curves evaluates each pair, and a row without LNL lanes skips the curves
+/// (docs/BENCHMARKS.md, thirtieth session). Mixed kinds take windows of [`WIDE_WINDOW`], in
+/// which more MAS of a kind meet.
+fn term_kinds(net: &Network) -> (Vec<u64>, bool) {
+    let nm = net.materials.len();
+    let mut kinds = vec![0u64; nm];
+    let mut count = vec![0u8; nm];
+    let mut terms = [0usize; 16];
+    let mut pairs: Vec<(&Curve, &Curve)> = Vec::new();
+    for link in &net.links {
+        let kind = match &link.law {
+            Interaction::But { .. } => 1,
+            Interaction::Lnl { lk, lz } => {
+                let p = match pairs.iter().position(|&(a, b)| a == lk && b == lz) {
+                    Some(p) => p,
+                    None if pairs.len() < 13 => {
+                        pairs.push((lk, lz));
+                        pairs.len() - 1
+                    }
+                    None => 13,
+                };
+                2 + p as u64
+            }
+            _ => 0,
+        };
+        for id in [link.a, link.b] {
+            let i = id.index();
+            if i >= nm || !net.materials[i].is_mobile() {
+                continue;
+            }
+            terms[kind as usize] += 1;
+            if usize::from(count[i]) < KINDS_MAX {
+                kinds[i] |= kind << (60 - 4 * u32::from(count[i]));
+                count[i] += 1;
+            }
+        }
+    }
+    let all: usize = terms.iter().sum();
+    let most = terms.iter().max().copied().unwrap_or(0);
+    (kinds, 16 * (all - most) >= all && all > most)
+}
+
+/// Link terms per material that [`term_kinds`] records.
+const KINDS_MAX: usize = 16;
 
 /// Most items between two progressions that continue each other that are recomputed one at a
 /// time rather than cutting the loop (see [`bridged`]).
@@ -5121,6 +5191,78 @@ mod tests {
         if e.k.pull.is_some() {
             let slots = |k: &Kernel| chain.iter().map(|m| k.slot[m.index()]).collect::<Vec<_>>();
             assert_eq!(slots(&e.k), slots(&local));
+        }
+    }
+
+    /// A network whose links' kinds are mixed ([`term_kinds`]) is stored with its MAS sorted
+    /// by the kinds of their terms within windows of [`WIDE_WINDOW`]: in a random network of
+    /// 3,000 MAS whose links to MAS of odd index are BUT, the others LNL (or LNL of a second
+    /// pair of curves), the MAS are in one window, sorted by degree then kinds, and with AVX-512
+    /// the pull step's rows of BUT and LNL lanes (of two pairs) are under a quarter of those of
+    /// the MAS ordered by degree alone. A network of one kind is not mixed.
+    #[test]
+    fn the_pull_step_stores_mas_of_one_kind_of_terms_together() {
+        let n = 3000;
+        let lnl = |steep: f64| Interaction::Lnl {
+            lk: Curve::new(&[(-0.01, -8e-4 * steep), (0.0, 0.0), (0.02, 3e-3 * steep)]).unwrap(),
+            lz: Curve::new(&[(-0.002, -4e-6), (0.003, 1e-5)]).unwrap(),
+        };
+        assert!(!term_kinds(&springs(3, n, Some(lnl(1.0)))).1);
+        assert!(!term_kinds(&ref_springs(3, n, 0, false)).1);
+        for pairs in [false, true] {
+            let mut net = springs(5, n, None);
+            for link in &mut net.links {
+                let odd = link.b.index() < n && link.b.index() % 2 == 1;
+                if link.a.index() < n && link.b.index() < n {
+                    link.law = match (odd, pairs) {
+                        (true, false) => Interaction::But {
+                            k: 0.04,
+                            z: 1e-3,
+                            s: 0.0,
+                        },
+                        (true, true) => lnl(1.1),
+                        (false, _) => lnl(1.0),
+                    };
+                }
+            }
+            let (kinds, mixed) = term_kinds(&net);
+            assert!(mixed);
+            let local = Kernel::build_with(&net, true, Joins::Off, Mobiles::Local);
+            let by_degree = Kernel::build_with(&net, true, Joins::Off, Mobiles::ByDegree);
+            // (one window: every MAS by degree, then by its terms' kinds)
+            assert!(n <= WIDE_WINDOW);
+            let mut degree = vec![0; net.materials.len()];
+            for link in &net.links {
+                degree[link.a.index()] += 1;
+                degree[link.b.index()] += 1;
+            }
+            let mut by_slot = vec![(0, 0); n];
+            for (i, m) in net.materials.iter().enumerate() {
+                if matches!(m, Material::Mas { .. }) {
+                    by_slot[local.slot[i] as usize] = (degree[i], kinds[i]);
+                }
+            }
+            assert!(by_slot.windows(2).all(|w| w[0] <= w[1]));
+            assert!(by_slot
+                .windows(2)
+                .any(|w| w[0].0 == w[1].0 && w[0].1 < w[1].1));
+            let Simd::Avx512(cpu) = Simd::detect() else {
+                continue;
+            };
+            let mixed_rows = |mut k: Kernel| {
+                k.simd = Simd::Avx512(cpu);
+                let p = pull::Pull::new(&k).expect("a pull step");
+                if pairs {
+                    p.rows_of_pairs().1
+                } else {
+                    p.rows_of_buts_and_curves()
+                }
+            };
+            let (sorted, unsorted) = (mixed_rows(local), mixed_rows(by_degree));
+            assert!(
+                unsorted > 150 && 4 * sorted < unsorted,
+                "{sorted} {unsorted}"
+            );
         }
     }
 

@@ -1257,8 +1257,9 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
 /// In a row that has one, those lanes compute [`sum_but`]'s terms with the same operations: `t =
 /// d + S` (a masked add; `t` is `d` in the other lanes, so the spring lanes' products are
 /// `sum`'s), the contact test on `t` with its sign flipped in `row.flip`, `g = K t + Z (v - vj)`
-/// set to `+0.0` out of contact; the LNL lanes then take `lnl`. A BUT lane evaluates the curves
-/// too, a value it does not use.
+/// set to `+0.0` out of contact; the LNL lanes then take `lnl`. A row without an LNL lane skips
+/// the curves (their values would not be used: every lane's `g` is its spring's, damper's or
+/// BUT's); in a row with one, a BUT lane evaluates the curves too, a value it does not use.
 ///
 /// Inlined always, and not compiled with AVX-512 as a function of its own: generic in `c`, it was
 /// not inlined into `groups_with` for a table, and ran slower (one A/B run: 0.92x).
@@ -1298,10 +1299,17 @@ unsafe fn sum_lnl<'p>(
         let (xj, vj) = unsafe { pairs(base, &row.at, xs, vs) };
         let d = _mm512_sub_pd(x, xj);
         let dv = _mm512_sub_pd(v, vj);
-        // SAFETY: the CPU has AVX-512F, and this function is compiled with it.
-        let lnl = flip(row.flip, unsafe {
-            c.forces(r, flip(row.flip, d), flip(row.flip, dv))
-        });
+        // (the row's LNL lanes: those of `row.b` but its BUT lanes, which have a spring; a row
+        // without one skips the curves)
+        let lnls = if but { row.b & !row.k } else { row.b };
+        let lnl = if lnls != 0 {
+            // SAFETY: the CPU has AVX-512F, and this function is compiled with it.
+            flip(row.flip, unsafe {
+                c.forces(r, flip(row.flip, d), flip(row.flip, dv))
+            })
+        } else {
+            zero
+        };
         let g = if full_rows || (row.k | row.z) != 0 {
             // SAFETY: eight `f64` each.
             let (kk, zz) = unsafe { (_mm512_loadu_pd(kr.as_ptr()), _mm512_loadu_pd(zr.as_ptr())) };
@@ -1317,14 +1325,14 @@ unsafe fn sum_lnl<'p>(
                 let spring = _mm512_maskz_mul_pd(row.k, kk, t);
                 let damper = _mm512_maskz_mul_pd(row.z, zz, dv);
                 let g = _mm512_mask_mov_pd(_mm512_add_pd(spring, damper), off, zero);
-                _mm512_mask_mov_pd(g, row.b & !buts, lnl)
+                _mm512_mask_mov_pd(g, lnls, lnl)
             } else {
                 let spring = _mm512_maskz_mul_pd(row.k, kk, d);
                 let damper = _mm512_maskz_mul_pd(row.z, zz, dv);
-                _mm512_mask_mov_pd(_mm512_add_pd(spring, damper), row.b, lnl)
+                _mm512_mask_mov_pd(_mm512_add_pd(spring, damper), lnls, lnl)
             }
         } else {
-            _mm512_maskz_mov_pd(row.b, lnl)
+            _mm512_maskz_mov_pd(lnls, lnl)
         };
         f = _mm512_sub_pd(f, g);
     }
