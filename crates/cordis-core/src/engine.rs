@@ -133,8 +133,10 @@ enum Mobiles {
     /// In declaration order: a membrane's MAS stay in their rows whatever their degree.
     Declared,
     /// Near their neighbours: in the order of a breadth-first walk of the links between mobile
-    /// materials, cut into windows of [`WINDOW`] materials of a kind, by degree within a window
-    /// (then in the walk's order). The pull step's storage (see [`local_order`]).
+    /// materials, cut into windows of [`WINDOW`] materials of a kind ([`WIDE_WINDOW`] where the
+    /// kinds of their terms are mixed), by degree within a window, then by the kinds of their
+    /// terms ([`term_kinds`]), then in the walk's order. The pull step's storage (see
+    /// [`local_order`]).
     Local,
 }
 

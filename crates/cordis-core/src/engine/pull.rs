@@ -4,10 +4,11 @@
 //! dampers) has no progressions for the vector loops: the gather and the compact step read
 //! every link's ends through index lists, one scalar at a time, and scatter or gather its force
 //! through another. The pull step drops the force buffer instead. Eight MAS of one *group*
-//! (consecutive storage slots; storage orders the MAS near their neighbours and by degree within
-//! windows, `Mobiles::Local`, so a group's MAS have about as many links and the pairs they read
-//! are near each other) sum their forces side by side: term `r` of every lane is that MAS's
-//! `r`-th link in FORMALISM.md's order, computed from the MAS's own side,
+//! (consecutive storage slots; storage orders the MAS near their neighbours, and by degree and
+//! the kinds of their terms within windows, `Mobiles::Local`, so a group's MAS have about as many
+//! links, the pairs they read are near each other, and a row's terms tend to be of one kind) sum
+//! their forces side by side: term `r` of every lane is that MAS's `r`-th link in FORMALISM.md's
+//! order, computed from the MAS's own side,
 //!
 //! `g = K (x_i - x_j) + Z (v_i - v_j)`, with `v = x(n) - x(n-1)`, and `F = F - g`,
 //!
