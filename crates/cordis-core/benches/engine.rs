@@ -106,6 +106,12 @@ impl Law {
     }
 }
 
+/// A BUT link of threshold 0 (K and Z as the models' REF links): a null-length spring in contact
+/// while `x2 - x1 < 0`: a hammer's felt, and the random networks' BUT.
+fn contact() -> Interaction {
+    Interaction::But { k: K, z: Z, s: 0.0 }
+}
+
 /// An LNL link of 3-point curves through 0 with slopes `k` and Z.
 fn lnl(k: f64) -> Interaction {
     let curve = |slope: f64| {
@@ -168,8 +174,7 @@ fn hammer(net: &mut Network, target: MatId) {
         x0: 2.0,
         v0: -0.01,
     });
-    let felt = Interaction::But { k: K, z: Z, s: 0.0 };
-    net.add_link(felt, target, hammer);
+    net.add_link(contact(), target, hammer);
 }
 
 /// As `gen_models.py build_string`: ground, N masses, ground, chained by N+1 links.
@@ -409,7 +414,7 @@ fn random(n: usize, law: Law) -> Model {
     // (a BUT of threshold 0: a null-length spring in contact while `x2 - x1 < 0`, about half the
     // time; the strings' threshold would leave every mass of a random network pushed one way)
     let interaction = match law {
-        Law::But => Interaction::But { k: K, z: Z, s: 0.0 },
+        Law::But => contact(),
         law => law.interaction(),
     };
     let halves = law == Law::LnlHalves;
@@ -435,7 +440,7 @@ fn random(n: usize, law: Law) -> Model {
                 _ => halves && i >= n / 2,
             };
             let link = if law == Law::ButLnl && j % 2 == 1 {
-                Interaction::But { k: K, z: Z, s: 0.0 }
+                contact()
             } else if second {
                 lnl(1.1 * K)
             } else {
