@@ -134,8 +134,9 @@ enum Mobiles {
     Declared,
     /// Near their neighbours: in the order of a breadth-first walk of the links between mobile
     /// materials, cut into windows of [`WINDOW`] materials of a kind ([`WIDE_WINDOW`] where the
-    /// kinds of their terms are mixed), by degree within a window, then by the kinds of their
-    /// terms ([`term_kinds`]), then in the walk's order. The pull step's storage (see
+    /// kinds of their terms are mixed), within a window by the pair of their LNL terms when
+    /// there are several pairs ([`TermKinds::pair`]), by degree, then by the kinds of their terms
+    /// ([`term_kinds`]), then in the walk's order. The pull step's storage (see
     /// [`local_order`]).
     Local,
 }
@@ -1545,16 +1546,17 @@ impl Kernel {
         let mut order: Vec<usize> = (0..nm).collect();
         if mobiles == Mobiles::Local {
             // (stable: the other materials in declaration order within a kind)
-            let (kinds, mixed) = term_kinds(net);
-            let (window, walk) = local_order(net, rank, if mixed { WIDE_WINDOW } else { WINDOW });
+            let tk = term_kinds(net);
+            let size = if tk.mixed { WIDE_WINDOW } else { WINDOW };
+            let (window, walk) = local_order(net, rank, size);
             order.sort_by_cached_key(|&i| {
                 let m = &net.materials[i];
-                let (d, kinds) = if m.is_mobile() {
-                    (degree[i], kinds[i])
+                let (pair, d, kinds) = if m.is_mobile() {
+                    (tk.pair(i), degree[i], tk.kinds[i])
                 } else {
-                    (0, 0)
+                    (0, 0, 0)
                 };
-                (rank(m), window[i], d, kinds, walk[i])
+                (rank(m), window[i], pair, d, kinds, walk[i])
             });
         } else {
             // stable: declaration order within a kind and degree
@@ -3456,17 +3458,19 @@ fn local_order(
 
 /// For [`Mobiles::Local`]: the kinds of each material's first [`KINDS_MAX`] link terms, in
 /// FORMALISM.md's order (the links' declaration order), as one number that sorts as the list
-/// (term `r`'s kind in bits `60 - 4 r..64 - 4 r`); and whether the kinds are mixed: at least one
-/// term in 16 of the mobile materials is not of the most common kind. A kind is 0 for RES, FRO
-/// and REF, 1 for BUT, and `2 + p` for an LNL of the `p`-th distinct pair of curves (the 14th and
-/// later pairs share 15).
+/// (term `r`'s kind in bits `60 - 4 r..64 - 4 r`); whether the kinds are mixed: at least one term
+/// in 16 of the mobile materials is not of the most common kind; and how many distinct pairs of
+/// LNL curves there are. A kind is 0 for RES, FRO and REF, 1 for BUT, and `2 + p` for an LNL of
+/// the `p`-th distinct pair of curves (the 14th and later pairs share 15).
 ///
 /// Sorted by it within a window and a degree, the MAS of a pull-step group tend to have terms of
 /// one kind in each row: a row of BUT and LNL lanes would compute both kinds of force, a row of
 /// several pairs of curves evaluates each pair, and a row without LNL lanes skips the curves
 /// (docs/BENCHMARKS.md, thirtieth session). Mixed kinds take windows of [`WIDE_WINDOW`], in
-/// which more MAS of a kind meet.
-fn term_kinds(net: &Network) -> (Vec<u64>, bool) {
+/// which more MAS of a kind meet. With several pairs, the MAS of one pair ([`TermKinds::pair`])
+/// come first in a window, ahead of degree, so that the pull step's groups of one pair make long
+/// runs (`Pull::runs`, thirty-first session).
+fn term_kinds(net: &Network) -> TermKinds {
     let nm = net.materials.len();
     let mut kinds = vec![0u64; nm];
     let mut count = vec![0u8; nm];
@@ -3502,7 +3506,40 @@ fn term_kinds(net: &Network) -> (Vec<u64>, bool) {
     }
     let all: usize = terms.iter().sum();
     let most = terms.iter().max().copied().unwrap_or(0);
-    (kinds, 16 * (all - most) >= all && all > most)
+    TermKinds {
+        kinds,
+        mixed: 16 * (all - most) >= all && all > most,
+        pairs: pairs.len(),
+    }
+}
+
+/// What [`term_kinds`] finds.
+struct TermKinds {
+    kinds: Vec<u64>,
+    mixed: bool,
+    pairs: usize,
+}
+
+impl TermKinds {
+    /// The LNL pair of material `i`'s terms: 0 when none is LNL, its LNL kind when all its LNL
+    /// terms have one pair, 16 when they have several; 0 for every material when the network
+    /// has fewer than two pairs.
+    fn pair(&self, i: usize) -> u8 {
+        if self.pairs < 2 {
+            return 0;
+        }
+        let mut pair = 0;
+        for r in 0..KINDS_MAX {
+            let kind = (self.kinds[i] >> (60 - 4 * r) & 0xf) as u8;
+            if kind >= 2 && pair != kind {
+                if pair != 0 {
+                    return 16;
+                }
+                pair = kind;
+            }
+        }
+        pair
+    }
 }
 
 /// Link terms per material that [`term_kinds`] records.
@@ -5199,7 +5236,8 @@ mod tests {
     /// A network whose links' kinds are mixed ([`term_kinds`]) is stored with its MAS sorted
     /// by the kinds of their terms within windows of [`WIDE_WINDOW`]: in a random network of
     /// 3,000 MAS whose links to MAS of odd index are BUT, the others LNL (or LNL of a second
-    /// pair of curves), the MAS are in one window, sorted by degree then kinds, and with AVX-512
+    /// pair of curves), the MAS are in one window, sorted by degree then kinds (with two pairs,
+    /// first by whether their LNL terms have the first pair, the second, or both), and with AVX-512
     /// the pull step's rows of BUT and LNL lanes (of two pairs) are under a quarter of those of
     /// the MAS ordered by degree alone. A network of one kind is not mixed.
     #[test]
@@ -5209,8 +5247,8 @@ mod tests {
             lk: Curve::new(&[(-0.01, -8e-4 * steep), (0.0, 0.0), (0.02, 3e-3 * steep)]).unwrap(),
             lz: Curve::new(&[(-0.002, -4e-6), (0.003, 1e-5)]).unwrap(),
         };
-        assert!(!term_kinds(&springs(3, n, Some(lnl(1.0)))).1);
-        assert!(!term_kinds(&ref_springs(3, n, 0, false)).1);
+        assert!(!term_kinds(&springs(3, n, Some(lnl(1.0)))).mixed);
+        assert!(!term_kinds(&ref_springs(3, n, 0, false)).mixed);
         for pairs in [false, true] {
             let mut net = springs(5, n, None);
             for link in &mut net.links {
@@ -5227,27 +5265,35 @@ mod tests {
                     };
                 }
             }
-            let (kinds, mixed) = term_kinds(&net);
-            assert!(mixed);
+            let tk = term_kinds(&net);
+            assert!(tk.mixed);
             let local = Kernel::build_with(&net, true, Joins::Off, Mobiles::Local);
             let by_degree = Kernel::build_with(&net, true, Joins::Off, Mobiles::ByDegree);
-            // (one window: every MAS by degree, then by its terms' kinds)
+            // (one window: every MAS by the pair of its LNL terms when there are two pairs, by
+            // degree, then by its terms' kinds)
             assert!(n <= WIDE_WINDOW);
             let mut degree = vec![0; net.materials.len()];
             for link in &net.links {
                 degree[link.a.index()] += 1;
                 degree[link.b.index()] += 1;
             }
-            let mut by_slot = vec![(0, 0); n];
+            let mut by_slot = vec![(0, 0, 0); n];
             for (i, m) in net.materials.iter().enumerate() {
                 if matches!(m, Material::Mas { .. }) {
-                    by_slot[local.slot[i] as usize] = (degree[i], kinds[i]);
+                    by_slot[local.slot[i] as usize] = (tk.pair(i), degree[i], tk.kinds[i]);
                 }
             }
             assert!(by_slot.windows(2).all(|w| w[0] <= w[1]));
             assert!(by_slot
                 .windows(2)
-                .any(|w| w[0].0 == w[1].0 && w[0].1 < w[1].1));
+                .any(|w| w[0].0 == w[1].0 && w[0].1 == w[1].1 && w[0].2 < w[1].2));
+            // (with two pairs: MAS of the first pair only, of the second only, and of both)
+            let pairs_of = |p: u8| by_slot.iter().filter(|b| b.0 == p).count();
+            if pairs {
+                assert!(pairs_of(2) > 50 && pairs_of(3) > 50 && pairs_of(16) > n / 2);
+            } else {
+                assert_eq!(pairs_of(0), n);
+            }
             let Simd::Avx512(cpu) = Simd::detect() else {
                 continue;
             };
@@ -5265,6 +5311,126 @@ mod tests {
                 unsorted > 150 && 4 * sorted < unsorted,
                 "{sorted} {unsorted}"
             );
+        }
+    }
+
+    /// [`springs`] in two halves, each of LNL links of a pair of its own: every link between MAS
+    /// of the two halves is moved into the half of its end 1, but one in 40, which has a third
+    /// pair (so that some groups have LNL lanes of several pairs). The FROs that tie each MAS to
+    /// the SOL, and the CEL's links, stay.
+    fn lnl_halves(seed: u64, n: usize) -> Network {
+        let mut net = springs(seed, n, None);
+        let pair = |k: &[(f64, f64)], z: &[(f64, f64)]| Interaction::Lnl {
+            lk: Curve::new(k).unwrap(),
+            lz: Curve::new(z).unwrap(),
+        };
+        let pairs = [
+            pair(
+                &[(-0.01, -8e-4), (0.0, 0.0), (0.004, 1e-4), (0.02, 3e-3)],
+                &[(-0.002, -4e-6), (0.001, 1e-6), (0.003, 0.0)],
+            ),
+            pair(
+                &[(-0.01, -5e-4), (0.0, 1e-6), (0.01, 6e-4)],
+                &[(-0.002, -3e-6), (0.002, 2e-6)],
+            ),
+            pair(
+                &[(-0.02, -1e-3), (0.03, 2e-3)],
+                &[(-0.001, -2e-6), (0.0, 1e-7), (0.004, 5e-6)],
+            ),
+        ];
+        let half = |m: MatId| usize::from(m.index() >= n / 2);
+        for (i, link) in net.links.iter_mut().enumerate() {
+            let (a, b) = (link.a.index(), link.b.index());
+            if a >= n || b >= n {
+                continue;
+            }
+            link.law = if half(link.a) == half(link.b) {
+                pairs[half(link.a)].clone()
+            } else if i % 40 == 0 {
+                pairs[2].clone()
+            } else {
+                // (a MAS of end 1's half, `lo..hi`, other than end 1)
+                let (lo, hi) = if half(link.a) == 0 {
+                    (0, n / 2)
+                } else {
+                    (n / 2, n)
+                };
+                let mut to = lo + b % (hi - lo);
+                if to == a {
+                    to = lo + (to - lo + 1) % (hi - lo);
+                }
+                link.b = MatId(to as u32);
+                pairs[half(link.a)].clone()
+            };
+        }
+        net
+    }
+
+    /// With several pairs of LNL curves, the pull step sums each long run of groups whose LNL
+    /// lanes have one pair as in a network of that pair, its curves in registers, and the other
+    /// groups with each row's pairs from the table (`Pull::runs`): in [`lnl_halves`] most groups
+    /// are in runs of one pair and some are not, and the outputs, positions and link forces
+    /// have the bits of the same engine reading every pair from the table, of the compact step,
+    /// and of three threads, at every block.
+    #[test]
+    fn the_pull_step_sums_runs_of_one_pair_with_the_curves_in_registers() {
+        if Avx512::detect().is_none() {
+            return; // (no pull step with LNL links: `the_pull_step_gives_the_other_steps_bits`)
+        }
+        for (seed, n) in [(31, 500), (32, 1203)] {
+            let net = lnl_halves(seed, n);
+            let mut pulled = Engine::new(&net);
+            let (one, table) = pulled
+                .k
+                .pull
+                .as_ref()
+                .expect("a pull step")
+                .groups_of_one_pair();
+            assert_eq!(one + table, n.div_ceil(8), "network {seed}");
+            assert!(
+                one > 2 * table && table > 0,
+                "network {seed}: {one} {table}"
+            );
+            let mut from_table = pulled.clone();
+            from_table
+                .k
+                .pull
+                .as_mut()
+                .unwrap()
+                .read_every_pair_from_the_table();
+            assert_eq!(
+                from_table.k.pull.as_ref().unwrap().groups_of_one_pair(),
+                (0, one + table)
+            );
+            let mut compact = pulled.clone();
+            let mut threads = pulled.clone();
+            threads.set_parallel_threshold(0);
+            threads.set_threads(3);
+            assert!(threads.is_parallel());
+            let ch = pulled.channels();
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            let mut moved = false;
+            for (i, block) in [1, 7, 300, 64, 1024].into_iter().enumerate() {
+                let mut out = [(); 4].map(|()| vec![0.0; block * ch]);
+                let [a, b, c, d] = &mut out;
+                assert!(pulled.process(block, a).is_ok());
+                assert!(from_table.process(block, b).is_ok());
+                assert!(compact.process_observed(block, c, &mut |_| {}).is_ok());
+                assert!(threads.process(block, d).is_ok());
+                for (j, o) in [&*b, &*c, &*d].into_iter().enumerate() {
+                    assert_eq!(bits(a), bits(o), "network {seed}, block {i}, engine {j}");
+                }
+                for e in [&from_table, &compact, &threads] {
+                    for m in (0..net.materials.len() as u32).map(MatId) {
+                        assert_eq!(e.position(m).to_bits(), pulled.position(m).to_bits());
+                    }
+                    for l in (0..net.links.len() as u32).map(LinkId) {
+                        assert_eq!(e.link_force(l).to_bits(), pulled.link_force(l).to_bits());
+                    }
+                }
+                moved |= a.iter().any(|&v| v != a[0]);
+            }
+            assert!(moved, "network {seed}");
         }
     }
 

@@ -39,7 +39,8 @@
 //! function proves its bits. A network of several pairs of LNL curves evaluates them as one shape,
 //! each curve padded to the most points of any (the same bits: `ExactCurve::padded`); a row reads
 //! its pair from a table, or evaluates each of its pairs and keeps each in its lanes when its LNL
-//! lanes have several ([`RowCurves`]). A network with BUT and LNL links both sums its rows as an
+//! lanes have several ([`RowCurves`]), except in long runs of groups of one pair, which are summed
+//! as a network of that pair ([`Pull::runs`]). A network with BUT and LNL links both sums its rows as an
 //! LNL network does, and a row with BUT lanes computes them as `sum_but` does. The kind of terms a
 //! network has ([`Terms`]: springs and dampers, with BUTs, or with LNLs, and BUTs if it has them,
 //! of one pair or of a table) chooses the sum once per step; a network with LNL curves that do not
@@ -84,6 +85,11 @@ enum Isa {
 
 /// [`Pull::row_curves`] of a row with no LNL lane.
 const NO_LNL: u32 = u32::MAX;
+/// The fewest groups in a run of one pair ([`Pull::runs`]): a shorter run reads its pair from the
+/// table, row by row. (A run is a call of the group loop of its own, with the pair's curves
+/// broadcast at its start.)
+const MIN_RUN: usize = 8;
+
 /// The bit of [`Pull::row_curves`] that marks a row whose LNL lanes have several pairs of curves.
 const PARTS: u32 = 1 << 31;
 
@@ -170,6 +176,12 @@ pub(super) struct Pull {
     /// Runs of parts, each part the position of a pair in `table` and the row's LNL lanes of that
     /// pair, a run ended by lanes `0`.
     parts: Vec<(u32, u8)>,
+    /// With several pairs, the groups in runs, each `(end, pair)`: the groups from the previous
+    /// run's end (or 0) to `end`, whose LNL lanes all have the pair at `pair` in `table`, summed
+    /// as in a network of that one pair ([`Curves`], the curves in registers), or (`None`) whose
+    /// rows read their pairs from the table ([`CurveTable`]). Else empty. A group with no LNL
+    /// lane joins the run before it; a run of one pair has at least [`MIN_RUN`] groups.
+    runs: Vec<(u32, Option<u32>)>,
     /// Whether every row computes the kind of terms that only some rows may have: the BUTs of a
     /// BUT network ([`sum_but`]), the springs, dampers and BUTs of an LNL network ([`sum_lnl`]). If
     /// not, a row computes them only if it has one ([`Pull::computes_full_rows`] decides).
@@ -298,6 +310,7 @@ impl Pull {
             table,
             row_curves: Vec::new(),
             parts: Vec::new(),
+            runs: Vec::new(),
             full_rows: false,
             cel_off: vec![0],
             cel_terms: Vec::new(),
@@ -410,6 +423,9 @@ impl Pull {
         } else {
             but && Pull::computes_full_rows(&p.rows, |r| r.b != 0)
         };
+        if !p.table.is_empty() {
+            p.runs = runs(&p.bounds, &p.row_curves);
+        }
         p.recorded = k.recorded_links()?;
         assert!(p.cel_terms.iter().all(|t| match *t {
             CelTerm::Link(j, ..) | CelTerm::But(j, ..) => (j as usize) < k.nm,
@@ -472,6 +488,28 @@ impl Pull {
             with(|r| r != NO_LNL && r & PARTS == 0),
             with(|r| r != NO_LNL && r & PARTS != 0),
         )
+    }
+
+    /// How many groups are in runs of one pair, and how many read their pairs from the table
+    /// ([`Pull::runs`]).
+    #[cfg(test)]
+    pub(super) fn groups_of_one_pair(&self) -> (usize, usize) {
+        let mut counts = [0, 0];
+        let mut start = 0;
+        for &(end, pair) in &self.runs {
+            counts[usize::from(pair.is_none())] += (end - start) as usize;
+            start = end;
+        }
+        (counts[0], counts[1])
+    }
+
+    /// Every group reads its pairs from the table, as before runs of one pair: the same bits
+    /// either way.
+    #[cfg(test)]
+    pub(super) fn read_every_pair_from_the_table(&mut self) {
+        if let Some(&(end, _)) = self.runs.last() {
+            self.runs = vec![(end, None)];
+        }
     }
 
     /// How many rows have BUT lanes and LNL lanes both.
@@ -1069,9 +1107,7 @@ impl<const A: usize, const B: usize> RowCurves<'_, A, B> {
     /// As [`LnlForces::forces`].
     #[inline(always)]
     unsafe fn pair(&self, at: u32, d: __m512d, dv: __m512d) -> __m512d {
-        let t = &self.table[at as usize..at as usize + 3 * (A + B)];
-        let (k, z) = t.split_at(3 * A);
-        let (k, z) = (ExactCurve::<A>::read(k), ExactCurve::<B>::read(z));
+        let (k, z) = read_pair::<A, B>(self.table, at);
         // SAFETY: the caller's promise (`V8`).
         unsafe {
             let (k, z) = (k.wide::<V8>(), z.wide::<V8>());
@@ -1184,8 +1220,20 @@ impl<const A: usize, const B: usize> Terms for CurveTable<A, B> {
     }
 }
 
+/// The pair of curves at `at` in `table` ([`Pull::table`]: `A` and `B` points).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn read_pair<const A: usize, const B: usize>(
+    table: &[f64],
+    at: u32,
+) -> (ExactCurve<A>, ExactCurve<B>) {
+    let t = &table[at as usize..at as usize + 3 * (A + B)];
+    let (k, z) = t.split_at(3 * A);
+    (ExactCurve::<A>::read(k), ExactCurve::<B>::read(z))
+}
+
 /// [`Pull::groups`] for a network of LNL links: [`Pull::groups_with`] with [`Curves`] of the
-/// network's point counts.
+/// network's point counts (and, with several pairs, [`CurveTable`], in [`Pull::runs`]).
 #[cfg(target_arch = "x86_64")]
 struct WithCurves<'a, 'b, P> {
     pull: &'a Pull,
@@ -1230,8 +1278,41 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
                 };
                 pull.groups_with(curves, kernel, n, gr, prev, pc, params, next, pn);
             } else {
+                // (each run of `gr`: its pair's curves, or the table)
                 let table = CurveTable::<A, B> { full_rows };
-                pull.groups_with(table, kernel, n, gr, prev, pc, params, next, pn);
+                let first = pull
+                    .runs
+                    .partition_point(|&(end, _)| end as usize <= gr.start);
+                let (mut next, mut pn, mut start) = (next, pn, gr.start);
+                for &(end, pair) in &pull.runs[first..] {
+                    if start >= gr.end {
+                        break;
+                    }
+                    let end = gr.end.min(end as usize);
+                    let slots = |g: usize| (LANES * g).min(kernel.n_mas);
+                    let (nx, rest) =
+                        std::mem::take(&mut next).split_at_mut(slots(end) - slots(start));
+                    next = rest;
+                    let (px, rest) = std::mem::take(&mut pn).split_at_mut(nx.len());
+                    pn = rest;
+                    let groups = start..end;
+                    match pair {
+                        Some(at) => {
+                            let (k, z) = read_pair::<A, B>(&pull.table, at);
+                            let curves = Curves {
+                                k: k.wide::<V8>(),
+                                z: z.wide::<V8>(),
+                                full_rows,
+                            };
+                            pull.groups_with(curves, kernel, n, groups, prev, pc, params, nx, px);
+                        }
+                        None => {
+                            pull.groups_with(table, kernel, n, groups, prev, pc, params, nx, px)
+                        }
+                    }
+                    start = end;
+                }
+                assert!(start >= gr.end && next.is_empty() && pn.is_empty());
             }
         }
     }
@@ -1338,6 +1419,41 @@ unsafe fn sum_lnl<'p>(
         f = _mm512_sub_pd(f, g);
     }
     f
+}
+
+/// [`Pull::runs`] of the groups whose rows are `rows[bounds[g]..bounds[g + 1]]`, of curves
+/// `row_curves` ([`Pull::row_curves`]).
+fn runs(bounds: &[u32], row_curves: &[u32]) -> Vec<(u32, Option<u32>)> {
+    // (each group's pair: `None` when it has no LNL lane, `Some(None)` when its rows have
+    // several; consecutive groups of one, and those of none after them, in one run)
+    let mut runs: Vec<(u32, Option<u32>)> = Vec::new();
+    for (g, rows) in (1..).zip(bounds.windows(2)) {
+        let mut pair = None;
+        for &at in &row_curves[rows[0] as usize..rows[1] as usize] {
+            pair = match (pair, at) {
+                (_, NO_LNL) => pair,
+                (None, at) if at & PARTS == 0 => Some(Some(at)),
+                (Some(one), at) if one == Some(at) => pair,
+                _ => Some(None),
+            };
+        }
+        match runs.last_mut() {
+            Some(last) if pair.is_none() || pair == Some(last.1) => last.0 = g,
+            _ => runs.push((g, pair.flatten())),
+        }
+    }
+    // (short runs of one pair read the table, and runs of the same join)
+    let mut joined: Vec<(u32, Option<u32>)> = Vec::new();
+    let mut start = 0;
+    for (end, pair) in runs {
+        let pair = pair.filter(|_| (end - start) as usize >= MIN_RUN);
+        start = end;
+        match joined.last_mut() {
+            Some(last) if last.1 == pair => last.0 = end,
+            _ => joined.push((end, pair)),
+        }
+    }
+    joined
 }
 
 /// The whole groups of `gr` (of eight MAS) and the last, partial, one if `gr` has it (then
