@@ -5064,28 +5064,7 @@ mod tests {
     /// seventh link, of the fourth.
     fn lnl_springs(seed: u64, n: usize, mix: u8) -> Network {
         let mut net = springs(seed, n, None);
-        let lnl = Interaction::Lnl {
-            lk: Curve::new(&[(-0.01, -8e-4), (0.0, 0.0), (0.004, 1e-4), (0.02, 3e-3)]).unwrap(),
-            lz: Curve::new(&[(-0.002, -4e-6), (0.001, 1e-6), (0.003, 0.0)]).unwrap(),
-        };
-        let pair = |k: &[(f64, f64)], z: &[(f64, f64)]| Interaction::Lnl {
-            lk: Curve::new(k).unwrap(),
-            lz: Curve::new(z).unwrap(),
-        };
-        let others = [
-            pair(
-                &[(-0.01, -5e-4), (0.0, 1e-6), (0.01, 6e-4)],
-                &[(-0.002, -3e-6), (0.002, 2e-6)],
-            ),
-            pair(
-                &[(-0.02, -1e-3), (0.03, 2e-3)],
-                &[(-0.001, -2e-6), (0.0, 1e-7), (0.004, 5e-6)],
-            ),
-            pair(
-                &[(-0.01, -6e-4), (0.0, -1e-5), (0.0, 1e-5), (0.01, 7e-4)],
-                &[(-0.003, -1e-6), (0.003, 1e-6)],
-            ),
-        ];
+        let [lnl, others @ ..] = lnl_pairs();
         let count = net.links.len();
         for (i, link) in net.links.iter_mut().enumerate() {
             let grounding = link.law == Interaction::Fro { z: 1e-4 };
@@ -5314,17 +5293,14 @@ mod tests {
         }
     }
 
-    /// [`springs`] in two halves, each of LNL links of a pair of its own: every link between MAS
-    /// of the two halves is moved into the half of its end 1, but one in 40, which has a third
-    /// pair (so that some groups have LNL lanes of several pairs). The FROs that tie each MAS to
-    /// the SOL, and the CEL's links, stay.
-    fn lnl_halves(seed: u64, n: usize) -> Network {
-        let mut net = springs(seed, n, None);
+    /// The test networks' four pairs of LNL curves, of 2 to 4 points, neither curve odd, the
+    /// viscous ones not zero at zero ([`lnl_springs`], [`lnl_halves`]).
+    fn lnl_pairs() -> [Interaction; 4] {
         let pair = |k: &[(f64, f64)], z: &[(f64, f64)]| Interaction::Lnl {
             lk: Curve::new(k).unwrap(),
             lz: Curve::new(z).unwrap(),
         };
-        let pairs = [
+        [
             pair(
                 &[(-0.01, -8e-4), (0.0, 0.0), (0.004, 1e-4), (0.02, 3e-3)],
                 &[(-0.002, -4e-6), (0.001, 1e-6), (0.003, 0.0)],
@@ -5337,7 +5313,20 @@ mod tests {
                 &[(-0.02, -1e-3), (0.03, 2e-3)],
                 &[(-0.001, -2e-6), (0.0, 1e-7), (0.004, 5e-6)],
             ),
-        ];
+            pair(
+                &[(-0.01, -6e-4), (0.0, -1e-5), (0.0, 1e-5), (0.01, 7e-4)],
+                &[(-0.003, -1e-6), (0.003, 1e-6)],
+            ),
+        ]
+    }
+
+    /// [`springs`] in two halves, each of LNL links of a pair of its own: every link between MAS
+    /// of the two halves is moved into the half of its end 1, but one in 40, which has a third
+    /// pair (so that some groups have LNL lanes of several pairs). The FROs that tie each MAS to
+    /// the SOL, and the CEL's links, stay.
+    fn lnl_halves(seed: u64, n: usize) -> Network {
+        let mut net = springs(seed, n, None);
+        let pairs = lnl_pairs();
         let half = |m: MatId| usize::from(m.index() >= n / 2);
         for (i, link) in net.links.iter_mut().enumerate() {
             let (a, b) = (link.a.index(), link.b.index());
