@@ -3515,8 +3515,11 @@ fn term_kinds(net: &Network) -> TermKinds {
 
 /// What [`term_kinds`] finds.
 struct TermKinds {
+    /// Each material's kinds of terms, as one number.
     kinds: Vec<u64>,
+    /// Whether the kinds are mixed.
     mixed: bool,
+    /// How many distinct pairs of LNL curves the links have (counted up to 13).
     pairs: usize,
 }
 
