@@ -40,8 +40,8 @@
 //! each curve padded to the most points of any (the same bits: `ExactCurve::padded`); a row reads
 //! its pair from a table, or evaluates each of its pairs and keeps each in its lanes when its LNL
 //! lanes have several ([`RowCurves`]), except in long runs of groups of one pair, which are summed
-//! as a network of that pair ([`Pull::runs`]). A network with BUT and LNL links both sums its rows as an
-//! LNL network does, and a row with BUT lanes computes them as `sum_but` does. The kind of terms a
+//! as a network of that pair ([`Pull::runs`]). A network with BUT and LNL links both sums its rows
+//! as an LNL network does, and a row with BUT lanes computes them as `sum_but` does. The kind of terms a
 //! network has ([`Terms`]: springs and dampers, with BUTs, or with LNLs, and BUTs if it has them,
 //! of one pair or of a table) chooses the sum once per step; a network with LNL curves that do not
 //! evaluate eight at a time or do not pad to one point count (a zero curve among curves that are
@@ -1220,6 +1220,25 @@ impl<const A: usize, const B: usize> Terms for CurveTable<A, B> {
     }
 }
 
+#[cfg(target_arch = "x86_64")]
+impl<const A: usize, const B: usize> Curves<A, B> {
+    /// The pair `(k, z)` broadcast to eight lanes.
+    ///
+    /// # Safety
+    /// The CPU has AVX-512F (see [`V8`]).
+    #[inline(always)]
+    unsafe fn new(k: ExactCurve<A>, z: ExactCurve<B>, full_rows: bool) -> Self {
+        // SAFETY: the caller's promise.
+        unsafe {
+            Curves {
+                k: k.wide::<V8>(),
+                z: z.wide::<V8>(),
+                full_rows,
+            }
+        }
+    }
+}
+
 /// The pair of curves at `at` in `table` ([`Pull::table`]: `A` and `B` points).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
@@ -1271,11 +1290,7 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
         unsafe {
             let full_rows = pull.full_rows;
             if pull.table.is_empty() {
-                let curves = Curves {
-                    k: k.wide::<V8>(),
-                    z: z.wide::<V8>(),
-                    full_rows,
-                };
+                let curves = Curves::new(k, z, full_rows);
                 pull.groups_with(curves, kernel, n, gr, prev, pc, params, next, pn);
             } else {
                 // (each run of `gr`: its pair's curves, or the table)
@@ -1299,11 +1314,7 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
                     match pair {
                         Some(at) => {
                             let (k, z) = read_pair::<A, B>(&pull.table, at);
-                            let curves = Curves {
-                                k: k.wide::<V8>(),
-                                z: z.wide::<V8>(),
-                                full_rows,
-                            };
+                            let curves = Curves::new(k, z, full_rows);
                             pull.groups_with(curves, kernel, n, groups, prev, pc, params, nx, px);
                         }
                         None => {
