@@ -89,6 +89,8 @@ enum Law {
     /// BUT links of threshold 0 and LNL links, a link's law chosen by its end 2 (the random
     /// network only): mixed in nearly every row
     ButLnl,
+    /// LNL links of curves drawn point by point ([`drawn`]): 7 points, and `Lnl`'s viscous curve
+    LnlDrawn,
 }
 
 impl Law {
@@ -102,6 +104,7 @@ impl Law {
                 s: BUT_S,
             },
             Law::Lnl => lnl(K),
+            Law::LnlDrawn => drawn(K),
         }
     }
 }
@@ -121,6 +124,29 @@ fn lnl(k: f64) -> Interaction {
     Interaction::Lnl {
         lk: curve(k),
         lz: curve(Z),
+    }
+}
+
+/// An LNL link of a 7-point stiffness curve, as a user draws a hardening spring point by point:
+/// slope `k` from `-L` to `L` (points at 0, ±L/2 and ±L), `2k` beyond, to ±2L; and the 3-point
+/// viscous curve of slope Z (`lnl`'s). The models stay within ±L, where it is `lnl(k)`'s spring
+/// (so the Rust generic's linear string checks it), but the engine evaluates all 7 points.
+fn drawn(k: f64) -> Interaction {
+    let l = LNL_L;
+    let points = [-2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0].map(|t: f64| {
+        let y = if t.abs() <= 1.0 {
+            t
+        } else {
+            t.signum() * (2.0 * t.abs() - 1.0)
+        };
+        (t * l, k * y * l)
+    });
+    let Interaction::Lnl { lz, .. } = lnl(k) else {
+        unreachable!("an LNL link")
+    };
+    Interaction::Lnl {
+        lk: Curve::new(&points).expect("a valid curve"),
+        lz,
     }
 }
 
@@ -198,6 +224,7 @@ fn string(n: usize, law: Law) -> Model {
         Law::Ref => format!("string_N{n}"),
         Law::But => format!("string_but_N{n}"),
         Law::Lnl => format!("string_lnl_N{n}"),
+        Law::LnlDrawn => format!("string_lnl_drawn_N{n}"),
         _ => unreachable!("a string's links are of one law"),
     };
     Model {
@@ -467,6 +494,7 @@ fn random(n: usize, law: Law) -> Model {
             Law::LnlHalves => format!("random_lnl_halves_N{n}"),
             Law::LnlStruck => format!("random_lnl_struck_N{n}"),
             Law::ButLnl => format!("random_but_lnl_N{n}"),
+            Law::LnlDrawn => format!("random_lnl_drawn_N{n}"),
         },
         net,
         masses: n + usize::from(matches!(law, Law::Struck | Law::LnlStruck)),
@@ -1273,7 +1301,7 @@ fn usage() -> ! {
          [membrane [R C | RxC]] [rimmed|free|struck|pair|graded R C | RxC] [strings S N | SxN] \
          [random [N]] [random-but [N]] [random-lnl [N]] [random-struck [N]] \
          [random-lnl-mixed [N]] [random-lnl-halves [N]] [random-lnl-struck [N]] \
-         [random-but-lnl [N]]...\n(no model: every default model)\n   \
+         [random-but-lnl [N]] [lnl-drawn [N]] [random-lnl-drawn [N]]...\n(no model: every default model)\n   \
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
          threads, default N = 100000 masses, T = 2)\n   \
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
@@ -1294,9 +1322,11 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "string" => Some(Law::Ref),
             "but" => Some(Law::But),
             "lnl" => Some(Law::Lnl),
+            "lnl-drawn" => Some(Law::LnlDrawn),
             "membrane" | "rimmed" | "free" | "struck" | "pair" | "graded" | "random"
             | "random-but" | "random-lnl" | "random-struck" | "random-lnl-mixed"
-            | "random-lnl-halves" | "random-lnl-struck" | "random-but-lnl" | "strings" => None,
+            | "random-lnl-halves" | "random-lnl-struck" | "random-but-lnl" | "random-lnl-drawn"
+            | "strings" => None,
             _ => usage(),
         };
         let random_law = match kind {
@@ -1307,6 +1337,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "random-lnl-halves" => Law::LnlHalves,
             "random-lnl-struck" => Law::LnlStruck,
             "random-but-lnl" => Law::ButLnl,
+            "random-lnl-drawn" => Law::LnlDrawn,
             _ => Law::Ref,
         };
         let first = args.get(i).map(String::as_str);
@@ -1352,6 +1383,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             Some(Spec::Strings(_, n)) if n < 2 => usage(),
             Some(spec) => specs.push(spec),
             None if random_law != Law::Ref => specs.push(Spec::Random(10000, random_law)),
+            None if law == Some(Law::LnlDrawn) => specs.push(Spec::String(1000, Law::LnlDrawn)),
             None => specs.extend(
                 DEFAULT_MODELS
                     .iter()

@@ -23,76 +23,6 @@ pub struct Curve {
     table: Box<[f64]>,
 }
 
-/// A curve of at most `N` points prepared for the engine's LNL loops: abscissas padded with NaN
-/// (never `<= x`, so the branch-free count over all `N` is the count over the real points) and
-/// the evaluation table of [`Curve::eval`]. Evaluates to the same bits as `Curve::eval`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct SmallCurve<const N: usize> {
-    xs: [f64; N],
-    /// `N + 1` entries, the last ones unused when the curve has fewer than `N` points
-    pieces: [Piece; 9],
-}
-
-impl<const N: usize> SmallCurve<N> {
-    /// `None` when the curve has more than `N` points (`N` at most 8).
-    pub(crate) fn new(c: &Curve) -> Option<Self> {
-        let n = c.xs().len();
-        if n > N || N > 8 {
-            return None;
-        }
-        let mut xs = [f64::NAN; N];
-        xs[..n].copy_from_slice(c.xs());
-        // `pieces[count]` for `count` points whose abscissa is `<= x`: the three cases of
-        // `Curve::eval` (before the first point, on a segment, after the last point)
-        let mut pieces = [Piece::default(); 9];
-        for (count, p) in pieces.iter_mut().enumerate().take(n + 1) {
-            *p = if n == 0 {
-                Piece {
-                    flat: 1.0,
-                    ..Piece::default() // the empty curve is 0 everywhere
-                }
-            } else if count == 0 || count == n {
-                Piece {
-                    y: c.ys()[count.saturating_sub(1)],
-                    flat: 1.0,
-                    ..Piece::default()
-                }
-            } else {
-                Piece {
-                    x0: c.xs()[count - 1],
-                    y: c.ys()[count - 1],
-                    slope: c.slopes()[count - 1],
-                    flat: 0.0,
-                }
-            };
-        }
-        Some(SmallCurve { xs, pieces })
-    }
-
-    /// The value at `x`: [`Curve::eval`], bit for bit.
-    #[inline(always)]
-    pub(crate) fn eval(&self, x: f64) -> f64 {
-        // The abscissas are sorted (NaN padding last), so those `<= x` are the first `count`:
-        // keeping the piece after the last of them selects `pieces[count]`. Selects, no branch
-        // and no indexed load, so that the engine's LNL loops are vectorised.
-        let p0 = &self.pieces[0];
-        let (mut x0, mut y, mut slope, mut flat) = (p0.x0, p0.y, p0.slope, p0.flat);
-        for (a, p) in self.xs.iter().zip(&self.pieces[1..]) {
-            let past = *a <= x;
-            x0 = if past { p.x0 } else { x0 };
-            y = if past { p.y } else { y };
-            slope = if past { p.slope } else { slope };
-            flat = if past { p.flat } else { flat };
-        }
-        let along = y + (x - x0) * slope;
-        if flat != 0.0 {
-            y
-        } else {
-            along
-        }
-    }
-}
-
 /// A curve of exactly `N` points prepared for the engine's LNL loops: the points and the
 /// slopes of [`Curve::eval`], evaluated with `N - 2` selects and two compares, no branch and no
 /// indexed load (so a loop over links is vectorised); `N = 0` is the zero curve (a sticking
@@ -107,8 +37,25 @@ pub(crate) struct ExactCurve<const N: usize> {
 
 impl<const N: usize> ExactCurve<N> {
     /// `None` unless the curve has exactly `N` points, `N` being 0 or at least 2.
+    #[cfg(test)]
     pub(crate) fn new(c: &Curve) -> Option<Self> {
-        if N == 1 || c.xs().len() != N {
+        if c.xs().len() != N {
+            return None;
+        }
+        Self::fit(c.xs(), c.ys(), c.slopes())
+    }
+
+    /// The curve `c` of at most `N` points, padded to `N` ([`ExactCurve::padded`]: the same
+    /// bits); `None` when it has more, or when one of them is the zero curve and not the other.
+    pub(crate) fn fitted(c: &Curve) -> Option<Self> {
+        Self::fit(c.xs(), c.ys(), c.slopes())
+    }
+
+    /// The curve of points `xs`, `ys` and the slopes of its segments, its last point repeated to
+    /// make `N` ([`ExactCurve::padded`]).
+    fn fit(xs: &[f64], ys: &[f64], slopes: &[f64]) -> Option<Self> {
+        let n = xs.len();
+        if N < n || N == 1 || (n == 0) != (N == 0) {
             return None;
         }
         let mut e = ExactCurve {
@@ -116,10 +63,11 @@ impl<const N: usize> ExactCurve<N> {
             ys: [0.0; N],
             slopes: [0.0; N],
         };
-        e.xs.copy_from_slice(c.xs());
-        e.ys.copy_from_slice(c.ys());
-        if N > 0 {
-            e.slopes[..N - 1].copy_from_slice(c.slopes());
+        let points = e.xs.iter_mut().zip(&mut e.ys).zip(&mut e.slopes);
+        for (i, ((x, y), slope)) in points.enumerate() {
+            let j = i.min(n.saturating_sub(1));
+            (*x, *y) = (xs[j], ys[j]);
+            *slope = if i + 1 < n { slopes[i] } else { 0.0 };
         }
         Some(e)
     }
@@ -186,23 +134,11 @@ impl<const N: usize> ExactCurve<N> {
     /// abscissa both give the last value, the curve's end: the added segment, of no width and
     /// slope `0.0`, is computed there but not chosen; below it, no repeated point is `<= x`, and
     /// the selects and the end test are the `N`-point curve's). `None` when `M < N`, and for the
-    /// zero curve unless `M` is 0 (it has no point to repeat).
+    /// zero curve unless `M` is 0 (it has no point to repeat). A curve of one point (a constant,
+    /// which `ExactCurve` holds only so, [`ExactCurve::fitted`]) is `y[0]` everywhere, padded: no
+    /// point `<= x` gives `y[0]`, and else `x` reaches the last abscissa, whose value is `y[0]`.
     pub(crate) fn padded<const M: usize>(&self) -> Option<ExactCurve<M>> {
-        if M < N || M == 1 || (N == 0) != (M == 0) {
-            return None;
-        }
-        let mut e = ExactCurve {
-            xs: [0.0; M],
-            ys: [0.0; M],
-            slopes: [0.0; M],
-        };
-        for i in 0..M {
-            let j = i.min(N.saturating_sub(1));
-            e.xs[i] = self.xs[j];
-            e.ys[i] = self.ys[j];
-            e.slopes[i] = if i + 1 < N { self.slopes[i] } else { 0.0 };
-        }
-        Some(e)
+        ExactCurve::<M>::fit(&self.xs, &self.ys, &self.slopes)
     }
 
     /// Appends the curve's `3 N` numbers to `out`, as [`ExactCurve::read`] takes them back.
@@ -290,19 +226,6 @@ impl<V: Vector, const N: usize> WideCurve<V, N> {
         let within = x.lt(self.xs[N - 1]);
         self.ys[N - 1].select(within, along)
     }
-}
-
-/// What [`Curve::eval`] does when `count` points have an abscissa `<= x`: `y` when `flat` (before
-/// the first point, after the last), else `y + (x - x0) * slope` (the segment from point
-/// `count - 1`).
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
-struct Piece {
-    x0: f64,
-    y: f64,
-    slope: f64,
-    /// 1 when flat, 0 otherwise (a number rather than a `bool`, so that the select in `eval` is
-    /// a vector compare)
-    flat: f64,
 }
 
 /// Why a list of points is not a curve.
@@ -519,7 +442,7 @@ mod tests {
     }
 
     #[test]
-    fn small_curves_evaluate_to_the_same_bits() {
+    fn exact_curves_evaluate_to_the_same_bits() {
         let curves = [
             vec![],
             vec![(0.5, -2.0)],
@@ -537,6 +460,14 @@ mod tests {
                 (1.0, 3.0),
                 (4.0, -1.0),
             ],
+            vec![
+                (-2.0, -1.0),
+                (-1.0, -0.5),
+                (-1.0, -0.25),
+                (0.0, 0.0),
+                (0.5, 0.75),
+            ],
+            (0..7).map(|i| (i as f64 / 3.0, (i as f64).sin())).collect(),
             (0..8).map(|i| (i as f64, (i * i) as f64)).collect(),
         ];
         let mut xs = vec![f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 0.0, -0.0, 1e300];
@@ -544,9 +475,7 @@ mod tests {
         for pts in &curves {
             let c = Curve::new(pts).unwrap();
             xs.extend(pts.iter().map(|p| p.0));
-            let s4 = SmallCurve::<4>::new(&c);
-            let s8 = SmallCurve::<8>::new(&c).unwrap();
-            assert_eq!(s4.is_some(), pts.len() <= 4);
+            // (each size the curve is exact at, or pads to: 2, 3, 4, 8)
             let (e0, e2, e3, e4) = (
                 ExactCurve::<0>::new(&c),
                 ExactCurve::<2>::new(&c),
@@ -563,17 +492,29 @@ mod tests {
                 ]
             );
             assert!(ExactCurve::<1>::new(&c).is_none());
+            let (f2, f3, f4, f8) = (
+                ExactCurve::<2>::fitted(&c),
+                ExactCurve::<3>::fitted(&c),
+                ExactCurve::<4>::fitted(&c),
+                ExactCurve::<8>::fitted(&c),
+            );
+            let fits = |m: usize| !pts.is_empty() && pts.len() <= m;
+            assert_eq!(
+                [f2.is_some(), f3.is_some(), f4.is_some(), f8.is_some()],
+                [fits(2), fits(3), fits(4), fits(8)]
+            );
+            assert_eq!(ExactCurve::<0>::fitted(&c).is_some(), pts.is_empty());
             for &x in &xs {
                 let want = c.eval(x).to_bits();
-                assert_eq!(s8.eval(x).to_bits(), want, "{pts:?} at {x}");
-                if let Some(s4) = s4 {
-                    assert_eq!(s4.eval(x).to_bits(), want, "{pts:?} at {x}");
-                }
                 let exact = [
                     e0.map(|e| e.eval(x)),
                     e2.map(|e| e.eval(x)),
                     e3.map(|e| e.eval(x)),
                     e4.map(|e| e.eval(x)),
+                    f2.map(|e| e.eval(x)),
+                    f3.map(|e| e.eval(x)),
+                    f4.map(|e| e.eval(x)),
+                    f8.map(|e| e.eval(x)),
                 ];
                 for v in exact.into_iter().flatten() {
                     assert_eq!(v.to_bits(), want, "{pts:?} at {x} (exact)");
@@ -581,7 +522,7 @@ mod tests {
             }
         }
         let nine: Vec<(f64, f64)> = (0..9).map(|i| (i as f64, 0.0)).collect();
-        assert!(SmallCurve::<8>::new(&Curve::new(&nine).unwrap()).is_none());
+        assert!(ExactCurve::<8>::fitted(&Curve::new(&nine).unwrap()).is_none());
     }
 
     /// `WideCurve::eval` gives `Curve::eval`'s bits in every lane for the curves that widen,
@@ -591,7 +532,7 @@ mod tests {
     #[test]
     fn wide_curves_evaluate_to_the_same_bits() {
         // (points, whether they widen)
-        let curves: [(Vec<(f64, f64)>, bool); 11] = [
+        let curves: [(Vec<(f64, f64)>, bool); 14] = [
             (vec![], true),
             (vec![(-1.0, 0.5), (2.0, 1.0)], true),
             (vec![(-1.0, -0.1), (0.0, 0.0), (1.0, 0.1)], true),
@@ -609,6 +550,29 @@ mod tests {
             (vec![(0.0, -1.0), (0.0, 1.0)], false),
             (vec![(-2.0, -0.0), (-2.0, 3.0), (5.0, -1.0)], false),
             (vec![(-1e-300, -1e300), (1e-300, 1e300), (1.0, 0.0)], false),
+            (
+                (0..5)
+                    .map(|i| (i as f64 - 2.0, (i as f64 - 2.0).powi(3)))
+                    .collect(),
+                true,
+            ),
+            (
+                vec![
+                    (-3.0, 1.0),
+                    (-1.0, -0.5),
+                    (0.0, 0.0),
+                    (0.0, 2.0),
+                    (1.0, 3.0),
+                    (2.0, 3.0),
+                    (4.0, -1.0),
+                    (4.0, -0.0),
+                ],
+                true,
+            ),
+            (
+                vec![(-1.0, 1.0), (-1.0, 2.0), (0.0, 0.0), (1.0, 1.0), (2.0, 0.0)],
+                false,
+            ),
         ];
         let xs = probes(777, 500, curves.iter().map(|c| &c.0[..]));
         let mut refused_differ = 0;
@@ -620,7 +584,8 @@ mod tests {
                 0 => wide_bits(&ExactCurve::<0>::new(&c).unwrap(), &xs, *widens),
                 2 => wide_bits(&ExactCurve::<2>::new(&c).unwrap(), &xs, *widens),
                 3 => wide_bits(&ExactCurve::<3>::new(&c).unwrap(), &xs, *widens),
-                _ => wide_bits(&ExactCurve::<4>::new(&c).unwrap(), &xs, *widens),
+                4 => wide_bits(&ExactCurve::<4>::new(&c).unwrap(), &xs, *widens),
+                _ => wide_bits(&ExactCurve::<8>::fitted(&c).unwrap(), &xs, *widens),
             };
             let scalar: Vec<u64> = xs.iter().map(|&x| c.eval(x).to_bits()).collect();
             assert_eq!(want, scalar, "{pts:?}: ExactCurve::eval");

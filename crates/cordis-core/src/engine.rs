@@ -45,7 +45,7 @@ use std::cell::Cell;
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use crate::curve::{ExactCurve, SmallCurve};
+use crate::curve::ExactCurve;
 use crate::lanes::{Avx512, LANES};
 use crate::lines::Lines;
 use crate::parallel::{Poisoned, Pool, SharedBuf, SpinBarrier, Task};
@@ -211,11 +211,13 @@ impl Cel {
 /// An LNL law (elastic curve of `d`, viscous curve of `v`), in the fastest form that evaluates
 /// exactly as [`Curve::eval`].
 #[derive(Clone, Debug)]
+#[allow(clippy::large_enum_variant)] // (one per distinct law, read by value in the loops)
 enum Lnl {
-    /// both curves of 0 or 2 to 4 points (the usual springs, contacts, dampers and sticking
-    /// springs), each evaluated with selects in a loop the compiler vectorises
+    /// both curves of at most 8 points (the usual springs, contacts, dampers and sticking
+    /// springs, and curves drawn point by point), each evaluated with selects in a loop the
+    /// compiler vectorises
     Exact(ExactPair),
-    Small8(Box<(SmallCurve<8>, SmallCurve<8>)>),
+    /// a curve of more points: [`Curve::eval`], one link at a time
     Any(Box<(Curve, Curve)>),
 }
 
@@ -237,13 +239,32 @@ macro_rules! exact_pairs {
         }
 
         impl ExactPair {
+            /// The pair of curves `k` and `z`, each at the size of its points ([`exact_size`],
+            /// padded: [`ExactCurve::fitted`]), a curve of 3 points next to one of 8 padded to 4
+            /// (there is no pair of 3 and 8 points); `None` for curves of more than 8 points.
             fn new(k: &Curve, z: &Curve) -> Option<ExactPair> {
+                let (a, b) = match (exact_size(k.len())?, exact_size(z.len())?) {
+                    (8, 3) => (8, 4),
+                    (3, 8) => (4, 8),
+                    sizes => sizes,
+                };
                 $(
-                    if let (Some(a), Some(b)) = (ExactCurve::<$a>::new(k), ExactCurve::<$b>::new(z)) {
-                        return Some(ExactPair::$v(a, b));
+                    if (a, b) == ($a, $b) {
+                        let (k, z) = (ExactCurve::<$a>::fitted(k)?, ExactCurve::<$b>::fitted(z)?);
+                        return Some(ExactPair::$v(k, z));
                     }
                 )*
                 None
+            }
+
+            /// The point counts of the smallest pair that pairs of `a` and `b` points pad to,
+            /// if any: at least as many, and 0 only for 0 (the zero curve pads only to itself).
+            fn shape(a: usize, b: usize) -> Option<(usize, usize)> {
+                let fits = |n: usize, m: usize| m >= n && (n == 0) == (m == 0);
+                [$(($a, $b)),*]
+                    .into_iter()
+                    .filter(|&(x, y)| fits(a, x) && fits(b, y))
+                    .min_by_key(|&(x, y)| (x + y, x))
             }
 
             #[inline(always)]
@@ -364,14 +385,30 @@ exact_pairs!(
     (P42, 4, 2),
     (P43, 4, 3),
     (P44, 4, 4),
+    (P80, 8, 0),
+    (P82, 8, 2),
+    (P84, 8, 4),
+    (P88, 8, 8),
+    (P08, 0, 8),
+    (P28, 2, 8),
+    (P48, 4, 8),
 );
+
+/// The size of [`ExactCurve`] a curve of `n` points takes: its own for 0 and 2 to 4 points, 2
+/// for one point, 8 for 5 to 8 points (padded, [`ExactCurve::fitted`]); `None` beyond 8.
+fn exact_size(n: usize) -> Option<usize> {
+    match n {
+        0 | 2..=4 => Some(n),
+        1 => Some(2),
+        5..=8 => Some(8),
+        _ => None,
+    }
+}
 
 impl Lnl {
     fn new(k: &Curve, z: &Curve) -> Lnl {
         if let Some(pair) = ExactPair::new(k, z) {
             Lnl::Exact(pair)
-        } else if let (Some(a), Some(b)) = (SmallCurve::new(k), SmallCurve::new(z)) {
-            Lnl::Small8(Box::new((a, b)))
         } else {
             Lnl::Any(Box::new((k.clone(), z.clone())))
         }
@@ -381,7 +418,6 @@ impl Lnl {
     fn force(&self, d: f64, v: f64) -> f64 {
         match self {
             Lnl::Exact(pair) => pair.force(d, v),
-            Lnl::Small8(c) => c.0.eval(d) + c.1.eval(v),
             Lnl::Any(c) => c.0.eval(d) + c.1.eval(v),
         }
     }
@@ -4941,7 +4977,8 @@ mod tests {
         let mut toggled = 0;
         // (kinds: 0 springs and dampers, 1 BUTs among them, 2 to 5 LNL networks of `mix` 0 to 3,
         // 6 one BUT among springs and dampers, 7 BUTs and LNLs among them, 8 an LNL network of
-        // four pairs of curves and one BUT)
+        // four pairs of curves and one BUT, 9 and 10 LNL networks of `mix` 4 and 5: curves
+        // drawn point by point)
         for (seed, n, kind) in [
             (1, 16, 0),
             (2, 40, 0),
@@ -4969,11 +5006,16 @@ mod tests {
             (24, 500, 7),
             (25, 40, 8),
             (26, 500, 8),
+            (27, 40, 9),
+            (28, 500, 9),
+            (29, 123, 10),
+            (30, 500, 10),
         ] {
             let net = match kind {
                 0 => springs(seed, n, None),
                 1 | 6 => but_springs(seed, n, kind == 1),
                 7 | 8 => but_lnl_springs(seed, n, kind == 8),
+                9 | 10 => lnl_springs(seed, n, kind - 5),
                 _ => lnl_springs(seed, n, kind - 2),
             };
             let but_links: Vec<LinkId> = (0..net.links.len() as u32)
@@ -4993,7 +5035,7 @@ mod tests {
                 // (every link LNL, or every link but the FROs to the SOL, of one `Z`)
                 assert_eq!(
                     pull.shared_params(),
-                    kind == 3 || kind == 4 || kind == 5,
+                    (3..=5).contains(&kind) || kind >= 9,
                     "network {seed}"
                 );
                 // (four pairs of curves, in rows of one pair and rows of several)
@@ -5001,6 +5043,12 @@ mod tests {
                     assert_eq!(pull.curve_pairs(), 4, "network {seed}");
                     let (one, several) = pull.rows_of_pairs();
                     assert!(one > 0 && (n < 500 || several > 0), "network {seed}");
+                }
+                // (curves drawn point by point, padded to 8 points: one pair, or two)
+                if kind >= 9 {
+                    let k = usize::from(kind - 9);
+                    assert_eq!(pull.curve_pairs(), k + 1, "network {seed}");
+                    assert_eq!(pull.curve_points(), Some([(8, 4), (8, 8)][k]));
                 }
                 // (rows with BUT and LNL lanes both)
                 if kind == 7 || kind == 8 {
@@ -5064,10 +5112,15 @@ mod tests {
     /// SOL and the ENX's link; 1, every link; 2, every link but the FROs that tie each MAS to
     /// the SOL (all of one `Z`; a row has one or none); 3, as 2 with four pairs of curves of
     /// other point counts (padded to one), each third of the links of its own pair but every
-    /// seventh link, of the fourth.
+    /// seventh link, of the fourth; 4, as 2 with one pair of curves drawn point by point (7 and
+    /// 3 points, padded to 8 and 4); 5, as 4 with the last third of the links of a second pair of
+    /// 5 and 6 points (the table's pairs padded to 8 and 8).
     fn lnl_springs(seed: u64, n: usize, mix: u8) -> Network {
         let mut net = springs(seed, n, None);
-        let [lnl, others @ ..] = lnl_pairs();
+        let [mut lnl, mut others @ ..] = lnl_pairs();
+        if mix >= 4 {
+            [lnl, others[0]] = drawn_pairs();
+        }
         let count = net.links.len();
         for (i, link) in net.links.iter_mut().enumerate() {
             let grounding = link.law == Interaction::Fro { z: 1e-4 };
@@ -5079,6 +5132,7 @@ mod tests {
                 link.law = match (mix, i % 7, i * 3 / count) {
                     (3, 3, _) => others[2].clone(),
                     (3, _, 1 | 2) => others[i * 3 / count - 1].clone(),
+                    (5, _, 2) => others[0].clone(),
                     _ => lnl.clone(),
                 };
             }
@@ -5319,6 +5373,46 @@ mod tests {
             pair(
                 &[(-0.01, -6e-4), (0.0, -1e-5), (0.0, 1e-5), (0.01, 7e-4)],
                 &[(-0.003, -1e-6), (0.003, 1e-6)],
+            ),
+        ]
+    }
+
+    /// Two pairs of LNL curves drawn point by point, as a user draws a hardening spring: 7 and 3
+    /// points (the engine's curves of 8 and 4), and 5 (with a jump) and 6 points (8 and 8).
+    fn drawn_pairs() -> [Interaction; 2] {
+        let pair = |k: &[(f64, f64)], z: &[(f64, f64)]| Interaction::Lnl {
+            lk: Curve::new(k).unwrap(),
+            lz: Curve::new(z).unwrap(),
+        };
+        [
+            pair(
+                &[
+                    (-0.02, -2e-3),
+                    (-0.01, -6e-4),
+                    (-0.004, -1.5e-4),
+                    (0.0, 1e-6),
+                    (0.004, 1.2e-4),
+                    (0.01, 5e-4),
+                    (0.02, 1.6e-3),
+                ],
+                &[(-0.002, -3e-6), (0.0, 1e-7), (0.003, 4e-6)],
+            ),
+            pair(
+                &[
+                    (-0.015, -1e-3),
+                    (-0.005, -2e-4),
+                    (0.0, 0.0),
+                    (0.0, 2e-5),
+                    (0.012, 9e-4),
+                ],
+                &[
+                    (-0.003, -5e-6),
+                    (-0.001, -1e-6),
+                    (0.0, 1e-7),
+                    (0.001, 2e-6),
+                    (0.002, 3e-6),
+                    (0.004, 4e-6),
+                ],
             ),
         ]
     }
@@ -6195,6 +6289,28 @@ mod tests {
             }
         }
         nets.push(("900 LNL 2 3, M any".into(), heavy));
+        // curves drawn point by point, of 5 to 8 points (padded to 8), with one of 3 (to 4) or 0
+        let drawn: &[(f64, f64)] = &[
+            (-0.008, -1.2e-3),
+            (-0.004, -4e-4),
+            (-0.001, -6e-5),
+            (0.0, 0.0),
+            (0.002, 2e-4),
+            (0.002, 2.5e-4),
+            (0.006, 9e-4),
+        ];
+        let drawn_damper: &[(f64, f64)] = &[
+            (-0.003, -4e-7),
+            (-0.001, -1e-7),
+            (0.0, 0.0),
+            (0.001, 1e-7),
+            (0.003, 5e-7),
+        ];
+        nets.push(("600 LNL 7 3".into(), bank(1, 600, lnl(drawn, damper))));
+        nets.push(("300 LNL 0 5".into(), bank(1, 300, lnl(&[], drawn_damper))));
+        let mut free = bank(1, 1100, lnl(drawn, drawn_damper));
+        free_both(&mut free);
+        nets.push(("1100 LNL 7 5, free ends".into(), free));
         let mut cut = bank(1, 200, lnl(spring, damper));
         let hammer = cut.add_material(Material::Mas {
             m: 2.0,
@@ -6289,7 +6405,7 @@ mod tests {
         assert_eq!(sheets(&one(15, &nothing)), 0);
         // a BUT link to a ground with the MAS at the other end than a neighbour's (its force is
         // not odd in its ends); the same for LNL, and LNL curves the grid step does not take (of
-        // 5 points, or not `ExactCurve::widens`: a first value of `-0.0`), or two of them
+        // 9 points, or not `ExactCurve::widens`: a first value of `-0.0`), or two of them
         let but = |_| Interaction::But {
             k: 0.1,
             z: 1e-4,
@@ -6302,14 +6418,19 @@ mod tests {
         let mut turned_lnl = bank(1, 100, lnl(spring, damper));
         turned(&mut turned_lnl);
         assert_eq!(sheets(&turned_lnl), 0);
-        let five: &[(f64, f64)] = &[
-            (-2.0, -1.0),
+        let nine: &[(f64, f64)] = &[
+            (-4.0, -1.0),
+            (-3.0, -0.5),
+            (-2.0, -0.25),
             (-1.0, 0.0),
             (0.0, 0.0),
             (1.0, 0.0),
-            (2.0, 1.0),
+            (2.0, 0.25),
+            (3.0, 0.5),
+            (4.0, 1.0),
         ];
-        assert_eq!(sheets(&bank(1, 100, lnl(five, damper))), 0);
+        assert_eq!(sheets(&bank(1, 100, lnl(nine, damper))), 0);
+        assert_eq!(sheets(&bank(1, 100, lnl(&nine[1..], damper))), 1);
         let minus_zero: &[(f64, f64)] = &[(-1.0, -0.0), (1.0, 1.0)];
         assert_eq!(sheets(&bank(1, 100, lnl(spring, minus_zero))), 0);
         // (a `-0.0` value in both curves: the force may be `-0.0`)

@@ -65,7 +65,7 @@
 //! **Strings.** A string is a sheet too ([`Sheet::string_at`]): at least [`COLS_MIN`] MAS in
 //! consecutive storage slots, each tied to the next by a link of one law and parameters (end 1
 //! the MAS before): REF of one `K`, `Z`; BUT of one `K`, `Z`, `S`; or LNL of one pair of curves
-//! of 0 or 2 to 4 points that [`ExactCurve::widens`] ([`Strand`]). Each MAS sums its links to
+//! of at most 8 points that [`ExactCurve::widens`] ([`Strand`]). Each MAS sums its links to
 //! the MAS before and after it (in either order: two terms from `+0.0` commute, see
 //! [`Sheet::piece`]), its first and last MAS tied to a SOL or free, any other terms a fix. Its
 //! "rows" are pieces of about [`PIECE`] MAS one after the other (`Sheet::starts`), which the
@@ -121,12 +121,13 @@ const PIECE: usize = 1024;
 const FREE: u32 = u32::MAX;
 
 /// The law of a sheet's links, with its `K` and `Z` (`Sheet::k`, `Sheet::z`): a membrane's are
-/// REF; a string's REF, BUT (threshold `s`) or LNL (curves of 0 or 2 to 4 points).
-#[derive(Clone, Copy, Debug)]
+/// REF; a string's REF, BUT (threshold `s`) or LNL (curves of at most 8 points, boxed: a pair
+/// of 8 and 8 points is 392 bytes).
+#[derive(Clone, Debug)]
 enum Strand {
     Ref,
     But { s: f64 },
-    Lnl(ExactPair),
+    Lnl(Box<ExactPair>),
 }
 
 /// A string's link law, as [`Sheet::piece`] computes it: one link at a time (the piece's ends)
@@ -1001,22 +1002,24 @@ impl Sheet {
             Law::Ref => Strand::Ref,
             Law::But => Strand::But { s: k.ls[first] },
             Law::Lnl => match &k.lnl[k.lnl_of[first] as usize] {
-                Lnl::Exact(pair) if pair.widens() && pair.never_minus_zero() => Strand::Lnl(*pair),
+                Lnl::Exact(pair) if pair.widens() && pair.never_minus_zero() => {
+                    Strand::Lnl(Box::new(*pair))
+                }
                 _ => return None,
             },
             _ => return None,
         };
-        let strand = g.strand;
+        let strand = g.strand.clone();
         let same = |l: usize| {
             l < k.nl
                 && law[l] == law[first]
                 && k.lk[l].to_bits() == k.lk[first].to_bits()
                 && k.lz[l].to_bits() == k.lz[first].to_bits()
-                && match strand {
+                && match &strand {
                     Strand::Ref => true,
                     Strand::But { s } => k.ls[l].to_bits() == s.to_bits(),
                     Strand::Lnl(pair) => match &k.lnl[k.lnl_of[l] as usize] {
-                        Lnl::Exact(other) => other.same_bits(&pair),
+                        Lnl::Exact(other) => other.same_bits(pair),
                         _ => false,
                     },
                 }
@@ -1401,7 +1404,7 @@ impl Sheet {
             && string(next)
             && next.base == self.slots(&(0..1)).end
             && matches!(
-                (self.strand, next.strand),
+                (&self.strand, &next.strand),
                 (Strand::Ref, Strand::Ref) | (Strand::But { .. }, Strand::But { .. })
             )
             && (self.simd, self.mass(), self.per_mas) == (next.simd, next.mass(), next.per_mas)
@@ -1431,7 +1434,7 @@ impl Sheet {
         ms: &[f64],
         next: &mut [f64],
     ) {
-        match bank[0].strand {
+        match &bank[0].strand {
             Strand::Ref => {
                 let law = |s: &Sheet| RefLinks(s.k, s.z);
                 Self::strings_as(bank, rows, law, x, xp, ms, next)
@@ -1448,7 +1451,7 @@ impl Sheet {
                     bank.len() == 1,
                     "an LNL string is stepped alone (`banks_with`)"
                 );
-                pair.visit(LnlStrings {
+                (**pair).visit(LnlStrings {
                     bank,
                     rows,
                     x,

@@ -255,9 +255,11 @@ impl Pull {
                 (pairs.len() - 1) as u32
             });
         }
-        // Several pairs evaluate as one shape: the most points of any, each padded to it.
+        // Several pairs evaluate as one shape: the smallest that has the most points of any,
+        // each padded to it.
         let (a, b) = (pairs.iter().map(ExactPair::counts))
             .fold((0, 0), |(a, b), (x, y)| (a.max(x), b.max(y)));
+        let (a, b) = ExactPair::shape(a, b)?;
         let mut table = Vec::new();
         let curves = match &pairs[..] {
             [] => None,
@@ -478,6 +480,13 @@ impl Pull {
     #[cfg(test)]
     pub(super) fn curve_pairs(&self) -> usize {
         self.pairs.len()
+    }
+
+    /// The point counts of the curves the LNL terms are evaluated with (the pair's, or the
+    /// table's).
+    #[cfg(test)]
+    pub(super) fn curve_points(&self) -> Option<(usize, usize)> {
+        self.curves.map(|c| c.counts())
     }
 
     /// How many rows have LNL lanes of one pair, of several (with several pairs).

@@ -796,6 +796,56 @@ pub fn lnl_network(seed: u64, n: usize, inertia: u8, all: bool, uniform: bool) -
     net
 }
 
+/// [`spring_network`] with LNL links of curves drawn point by point, as a user draws a hardening
+/// spring (7 and 3 points, which the engine pads to 8 and 4): two links in three; with `two`,
+/// every other one of them of a second pair (5 points with a jump, and 6).
+pub fn drawn_lnl_network(seed: u64, n: usize, inertia: u8, two: bool) -> Network {
+    let mut net = spring_network(seed, n, 4, inertia, false);
+    let pair = |k: &[(f64, f64)], z: &[(f64, f64)]| Interaction::Lnl {
+        lk: Curve::new(k).expect("a curve"),
+        lz: Curve::new(z).expect("a curve"),
+    };
+    let first = pair(
+        &[
+            (-0.02, -2e-3),
+            (-0.01, -6e-4),
+            (-0.004, -1.5e-4),
+            (0.0, 0.0),
+            (0.004, 1.2e-4),
+            (0.01, 5e-4),
+            (0.02, 1.6e-3),
+        ],
+        &[(-0.002, -2e-6), (0.001, 5e-7), (0.003, 0.0)],
+    );
+    let second = pair(
+        &[
+            (-0.015, -1e-3),
+            (-0.005, -2e-4),
+            (0.0, 0.0),
+            (0.0, 2e-5),
+            (0.012, 9e-4),
+        ],
+        &[
+            (-0.003, -5e-6),
+            (-0.001, -1e-6),
+            (0.0, 1e-7),
+            (0.001, 2e-6),
+            (0.002, 3e-6),
+            (0.004, 4e-6),
+        ],
+    );
+    for (i, link) in net.links.iter_mut().enumerate() {
+        if i % 3 != 0 {
+            link.law = if two && i % 2 == 0 {
+                second.clone()
+            } else {
+                first.clone()
+            };
+        }
+    }
+    net
+}
+
 /// [`spring_network`] with every link LNL, of four pairs of curves of different point counts:
 /// the links of each third of the declaration order of its own pair (so that many rows of the
 /// pull step have one pair), and every 29th link of a fourth (so that some have several).
