@@ -168,10 +168,13 @@ impl<const N: usize> ExactCurve<N> {
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     pub(crate) unsafe fn wide<V: Vector>(&self) -> WideCurve<V, N> {
+        // (the first `V::N` of each, for `WideCurve::eval`'s look-up)
+        let table = |a: &[f64; N]| V::load_part(&a[..N.min(V::N)]);
         WideCurve {
             xs: self.xs.map(|v| V::splat(v)),
             ys: self.ys.map(|v| V::splat(v)),
             slopes: self.slopes.map(|v| V::splat(v)),
+            table: [table(&self.xs), table(&self.ys), table(&self.slopes)],
         }
     }
 }
@@ -185,10 +188,17 @@ pub(crate) struct WideCurve<V: Vector, const N: usize> {
     xs: [V; N],
     ys: [V; N],
     slopes: [V; N],
+    /// The first `V::N` abscissas, values and slopes, one vector each (`0.0` past `N`)
+    table: [V; 3],
 }
 
 #[cfg(target_arch = "x86_64")]
 impl<V: Vector, const N: usize> WideCurve<V, N> {
+    /// Whether [`WideCurve::eval`] looks segments up rather than selects them: for curves of
+    /// more than 4 points (3 selects a point against 2 operations, and 3 look-ups in all) whose
+    /// `N - 1` segments fit one vector.
+    const LOOKS_UP: bool = N > 4 && N - 1 <= V::N;
+
     /// The value at each lane of `x`: [`ExactCurve::eval`]'s bits in each lane, for a curve
     /// that [`ExactCurve::widens`]. [`Vector::le`] is Rust's `<=` (false when either side is
     /// NaN), `a.select(k, b)` is `if k { b } else { a }`, and `along` is the same `y + (x - x0) *
@@ -207,6 +217,11 @@ impl<V: Vector, const N: usize> WideCurve<V, N> {
     /// signs, where it is `x[0]`: segment 0 either way, and `x - x0` a zero either way, so the
     /// value is `y[0]` plus a zero, `y[0]`, either way.
     ///
+    /// A curve of more points looks its segment up ([`WideCurve::LOOKS_UP`]): the abscissas are
+    /// sorted, so the `j` in `1..N-1` with `x[j] <= x` are the first ones, and their count is the
+    /// last of them (or 0): the segment the selects keep. [`Vector::pick`] reads its `x[j]`,
+    /// `y[j]` and slope from the table, the numbers the selects would.
+    ///
     /// # Safety
     /// The CPU must have `V`'s instructions (see [`Vector`]).
     #[inline(always)]
@@ -215,13 +230,23 @@ impl<V: Vector, const N: usize> WideCurve<V, N> {
             return V::zero(); // (`N` is 0: `ExactCurve::new` refuses 1)
         }
         let x = x.max(self.xs[0]);
-        let (mut x0, mut y, mut slope) = (self.xs[0], self.ys[0], self.slopes[0]);
-        for j in 1..N - 1 {
-            let past = self.xs[j].le(x);
-            x0 = x0.select(past, self.xs[j]);
-            y = y.select(past, self.ys[j]);
-            slope = slope.select(past, self.slopes[j]);
-        }
+        let (x0, y, slope) = if Self::LOOKS_UP {
+            let mut i = V::first();
+            for j in 1..N - 1 {
+                i = V::up(i, self.xs[j].le(x));
+            }
+            let [xs, ys, slopes] = self.table;
+            (xs.pick(i), ys.pick(i), slopes.pick(i))
+        } else {
+            let (mut x0, mut y, mut slope) = (self.xs[0], self.ys[0], self.slopes[0]);
+            for j in 1..N - 1 {
+                let past = self.xs[j].le(x);
+                x0 = x0.select(past, self.xs[j]);
+                y = y.select(past, self.ys[j]);
+                slope = slope.select(past, self.slopes[j]);
+            }
+            (x0, y, slope)
+        };
         let along = y.add(x.sub(x0).mul(slope));
         let within = x.lt(self.xs[N - 1]);
         self.ys[N - 1].select(within, along)

@@ -26,6 +26,8 @@ pub(crate) trait Vector: Copy {
     const SHIFT_IS_ONE: bool;
     /// A set of lanes (the result of a compare).
     type Mask: Copy;
+    /// An index into `N` numbers in each lane ([`Vector::pick`]).
+    type Index: Copy;
 
     unsafe fn splat(v: f64) -> Self;
     unsafe fn zero() -> Self;
@@ -60,6 +62,12 @@ pub(crate) trait Vector: Copy {
     /// `[self[N-1], b[0], .., b[N-2]]`: the left neighbours of the `N` items `b` from theirs and
     /// the `N` before's.
     unsafe fn prev1(self, b: Self) -> Self;
+    /// Index 0 in every lane.
+    unsafe fn first() -> Self::Index;
+    /// `i + 1` in the lanes `m`, `i` in the others.
+    unsafe fn up(i: Self::Index, m: Self::Mask) -> Self::Index;
+    /// `self[i[j]]` in each lane `j` (each `i[j] < N`).
+    unsafe fn pick(self, i: Self::Index) -> Self;
 }
 
 /// Eight lanes: AVX-512F.
@@ -77,6 +85,7 @@ impl Vector for V8 {
     const N: usize = 8;
     const SHIFT_IS_ONE: bool = true;
     type Mask = __mmask8;
+    type Index = __m512i;
 
     #[inline(always)]
     unsafe fn splat(v: f64) -> Self {
@@ -154,6 +163,20 @@ impl Vector for V8 {
         let (a, b) = (_mm512_castpd_si512(self.0), _mm512_castpd_si512(b.0));
         V8(_mm512_castsi512_pd(_mm512_alignr_epi64::<7>(b, a)))
     }
+    #[inline(always)]
+    unsafe fn first() -> __m512i {
+        _mm512_setzero_si512()
+    }
+    /// A masked `vpaddq`.
+    #[inline(always)]
+    unsafe fn up(i: __m512i, m: __mmask8) -> __m512i {
+        _mm512_mask_add_epi64(i, m, i, _mm512_set1_epi64(1))
+    }
+    /// One `vpermpd`.
+    #[inline(always)]
+    unsafe fn pick(self, i: __m512i) -> Self {
+        V8(_mm512_permutexvar_pd(i, self.0))
+    }
 }
 
 /// The lanes `0..n` of four as an AVX2 mask (all ones in a lane that is set).
@@ -168,6 +191,7 @@ impl Vector for V4 {
     const N: usize = 4;
     const SHIFT_IS_ONE: bool = false;
     type Mask = __m256d;
+    type Index = __m256i;
 
     #[inline(always)]
     unsafe fn splat(v: f64) -> Self {
@@ -250,6 +274,24 @@ impl Vector for V4 {
     unsafe fn prev1(self, b: Self) -> Self {
         let mid = _mm256_permute2f128_pd::<0x21>(self.0, b.0); // [a2 a3 b0 b1]
         V4(_mm256_shuffle_pd::<0b0101>(mid, b.0))
+    }
+    #[inline(always)]
+    unsafe fn first() -> __m256i {
+        _mm256_setzero_si256()
+    }
+    /// `i - m`: a set lane of `m` is all ones, `-1`.
+    #[inline(always)]
+    unsafe fn up(i: __m256i, m: __m256d) -> __m256i {
+        _mm256_sub_epi64(i, _mm256_castpd_si256(m))
+    }
+    /// `vpermd` of the 32-bit halves: lane `j` takes halves `2 i[j]` and `2 i[j] + 1`.
+    #[inline(always)]
+    unsafe fn pick(self, i: __m256i) -> Self {
+        let low = _mm256_slli_epi64::<1>(i);
+        let high = _mm256_slli_epi64::<32>(_mm256_add_epi64(low, _mm256_set1_epi64x(1)));
+        let halves = _mm256_or_si256(low, high);
+        let t = _mm256_castpd_si256(self.0);
+        V4(_mm256_castsi256_pd(_mm256_permutevar8x32_epi32(t, halves)))
     }
 }
 
@@ -375,5 +417,22 @@ mod tests {
         let mut out = vec![0.0; n];
         vb.store(out.as_mut_ptr());
         assert_eq!(out, b);
+        // indexes: counted up lane by lane, then picking from a table (NaN bits included)
+        let table: Vec<f64> = (0..n).map(|i| odd[(3 * i + 2) % 8]).collect();
+        let vt = V::load(table.as_ptr());
+        let mut i = V::first();
+        let mut count = vec![0; n];
+        for m in [vx.le(vy), vx.lt(vy), V::lane(n - 1), V::lane(0), V::lane(1)] {
+            i = V::up(i, m);
+            let set = lanes(V::zero().select(m, V::splat(1.0)));
+            for (c, s) in count.iter_mut().zip(set) {
+                *c += usize::from(s == 1.0);
+            }
+            let want: Vec<f64> = count.iter().map(|&c| table[c % n]).collect();
+            if count.iter().all(|&c| c < n) {
+                assert_eq!(bits(&lanes(vt.pick(i))), bits(&want), "{count:?}");
+            }
+        }
+        assert!(count.iter().any(|&c| c >= 2), "{count:?}");
     }
 }
