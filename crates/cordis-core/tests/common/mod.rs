@@ -796,9 +796,10 @@ pub fn lnl_network(seed: u64, n: usize, inertia: u8, all: bool, uniform: bool) -
     net
 }
 
-/// [`spring_network`] with LNL links of curves drawn point by point, as a user draws a hardening
-/// spring (7 and 3 points, which the engine pads to 8 and 4): two links in three; with `two`,
-/// every other one of them of a second pair (5 points with a jump, and 6).
+/// [`spring_network`] with LNL links of curves drawn point by point, as a user draws a softening
+/// then hardening spring (8 points, and a viscous curve of 2): two links in three; with `two`,
+/// every other one of them of a second pair (6 points, a jump among them, and 5), which the engine
+/// pads to one shape (8 and 8).
 pub fn drawn_lnl_network(seed: u64, n: usize, inertia: u8, two: bool) -> Network {
     let mut net = spring_network(seed, n, 4, inertia, false);
     let pair = |k: &[(f64, f64)], z: &[(f64, f64)]| Interaction::Lnl {
@@ -807,31 +808,32 @@ pub fn drawn_lnl_network(seed: u64, n: usize, inertia: u8, two: bool) -> Network
     };
     let first = pair(
         &[
-            (-0.02, -2e-3),
-            (-0.01, -6e-4),
-            (-0.004, -1.5e-4),
-            (0.0, 0.0),
-            (0.004, 1.2e-4),
-            (0.01, 5e-4),
-            (0.02, 1.6e-3),
+            (-0.03, -2.4e-3),
+            (-0.015, -9e-4),
+            (-0.006, -3e-4),
+            (-0.001, -4e-5),
+            (0.002, 8e-5),
+            (0.008, 2.5e-4),
+            (0.016, 8e-4),
+            (0.025, 2e-3),
         ],
-        &[(-0.002, -2e-6), (0.001, 5e-7), (0.003, 0.0)],
+        &[(-0.003, -6e-6), (0.003, 5e-6)],
     );
     let second = pair(
         &[
-            (-0.015, -1e-3),
-            (-0.005, -2e-4),
-            (0.0, 0.0),
-            (0.0, 2e-5),
-            (0.012, 9e-4),
+            (-0.02, -1.5e-3),
+            (-0.008, -4e-4),
+            (0.0, -1e-5),
+            (0.0, 1e-5),
+            (0.009, 5e-4),
+            (0.02, 1.4e-3),
         ],
         &[
-            (-0.003, -5e-6),
-            (-0.001, -1e-6),
-            (0.0, 1e-7),
-            (0.001, 2e-6),
+            (-0.004, -6e-6),
+            (-0.001, -2e-6),
+            (0.0, 0.0),
             (0.002, 3e-6),
-            (0.004, 4e-6),
+            (0.005, 7e-6),
         ],
     );
     for (i, link) in net.links.iter_mut().enumerate() {
