@@ -23,10 +23,11 @@ pub struct Curve {
     table: Box<[f64]>,
 }
 
-/// A curve of exactly `N` points prepared for the engine's LNL loops: the points and the
-/// slopes of [`Curve::eval`], evaluated with `N - 2` selects and two compares, no branch and no
-/// indexed load (so a loop over links is vectorised); `N = 0` is the zero curve (a sticking
-/// spring's viscous curve). The same bits as `Curve::eval`.
+/// A curve of exactly `N` points (or of fewer, padded to `N`: [`ExactCurve::fitted`]) prepared
+/// for the engine's LNL loops: the points and the slopes of [`Curve::eval`], evaluated with `N -
+/// 2` selects and two compares, no branch and no indexed load (so a loop over links is
+/// vectorised); `N = 0` is the zero curve (a sticking spring's viscous curve). The same bits as
+/// `Curve::eval`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct ExactCurve<const N: usize> {
     xs: [f64; N],
@@ -134,8 +135,8 @@ impl<const N: usize> ExactCurve<N> {
     /// abscissa both give the last value, the curve's end: the added segment, of no width and
     /// slope `0.0`, is computed there but not chosen; below it, no repeated point is `<= x`, and
     /// the selects and the end test are the `N`-point curve's). `None` when `M < N`, and for the
-    /// zero curve unless `M` is 0 (it has no point to repeat). A curve of one point (a constant,
-    /// which `ExactCurve` holds only so, [`ExactCurve::fitted`]) is `y[0]` everywhere, padded: no
+    /// zero curve unless `M` is 0 (it has no point to repeat). A curve of one point, a constant
+    /// ([`ExactCurve::fitted`] pads it to 2 points or more), is `y[0]` everywhere, padded: no
     /// point `<= x` gives `y[0]`, and else `x` reaches the last abscissa, whose value is `y[0]`.
     pub(crate) fn padded<const M: usize>(&self) -> Option<ExactCurve<M>> {
         ExactCurve::<M>::fit(&self.xs, &self.ys, &self.slopes)
