@@ -239,15 +239,12 @@ macro_rules! exact_pairs {
         }
 
         impl ExactPair {
-            /// The pair of curves `k` and `z`, each at the size of its points ([`exact_size`],
-            /// padded: [`ExactCurve::fitted`]), a curve of 3 points next to one of 8 padded to 4
-            /// (there is no pair of 3 and 8 points); `None` for curves of more than 8 points.
+            /// The pair of curves `k` and `z`, each padded ([`ExactCurve::fitted`]) to the
+            /// smallest pair of point counts that holds them ([`ExactPair::shape`]: a curve of
+            /// 1 point is one of 2, of 5 to 8 points one of 8, and of 3 points next to one of 8
+            /// one of 4); `None` for curves of more than 8 points.
             fn new(k: &Curve, z: &Curve) -> Option<ExactPair> {
-                let (a, b) = match (exact_size(k.len())?, exact_size(z.len())?) {
-                    (8, 3) => (8, 4),
-                    (3, 8) => (4, 8),
-                    sizes => sizes,
-                };
+                let (a, b) = Self::shape(k.len(), z.len())?;
                 $(
                     if (a, b) == ($a, $b) {
                         let (k, z) = (ExactCurve::<$a>::fitted(k)?, ExactCurve::<$b>::fitted(z)?);
@@ -393,17 +390,6 @@ exact_pairs!(
     (P28, 2, 8),
     (P48, 4, 8),
 );
-
-/// The size of [`ExactCurve`] a curve of `n` points takes: its own for 0 and 2 to 4 points, 2
-/// for one point, 8 for 5 to 8 points (padded, [`ExactCurve::fitted`]); `None` beyond 8.
-fn exact_size(n: usize) -> Option<usize> {
-    match n {
-        0 | 2..=4 => Some(n),
-        1 => Some(2),
-        5..=8 => Some(8),
-        _ => None,
-    }
-}
 
 impl Lnl {
     fn new(k: &Curve, z: &Curve) -> Lnl {
