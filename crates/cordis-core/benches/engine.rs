@@ -91,6 +91,8 @@ enum Law {
     ButLnl,
     /// LNL links of curves drawn point by point ([`drawn`]): 7 points, and `Lnl`'s viscous curve
     LnlDrawn,
+    /// LNL links of curves drawn finely ([`fine`]): 13 points, and `Lnl`'s viscous curve
+    LnlFine,
 }
 
 impl Law {
@@ -105,6 +107,7 @@ impl Law {
             },
             Law::Lnl => lnl(K),
             Law::LnlDrawn => drawn(K),
+            Law::LnlFine => fine(K),
         }
     }
 }
@@ -132,15 +135,32 @@ fn lnl(k: f64) -> Interaction {
 /// viscous curve of slope Z (`lnl`'s). The models stay within ±L, where it is `lnl(k)`'s spring
 /// (so the Rust generic's linear string checks it), but the engine evaluates all 7 points.
 fn drawn(k: f64) -> Interaction {
+    hardening(k, &[-2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0])
+}
+
+/// An LNL link of a 13-point stiffness curve, [`drawn`]'s spring drawn more finely: points at 0,
+/// ±L/4, ±L/2, ±3L/4, ±L, ±3L/2 and ±2L.
+fn fine(k: f64) -> Interaction {
+    let at = [0.0, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0];
+    let mut ts: Vec<f64> = at.iter().rev().map(|t| -t).collect();
+    ts.extend(&at[1..]);
+    hardening(k, &ts)
+}
+
+/// [`drawn`]'s spring through the points of abscissas `ts` times `L`, and `lnl(k)`'s viscous
+/// curve.
+fn hardening(k: f64, ts: &[f64]) -> Interaction {
     let l = LNL_L;
-    let points = [-2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0].map(|t: f64| {
-        let y = if t.abs() <= 1.0 {
-            t
-        } else {
-            t.signum() * (2.0 * t.abs() - 1.0)
-        };
-        (t * l, k * y * l)
-    });
+    let points: Vec<(f64, f64)> = (ts.iter())
+        .map(|&t| {
+            let y = if t.abs() <= 1.0 {
+                t
+            } else {
+                t.signum() * (2.0 * t.abs() - 1.0)
+            };
+            (t * l, k * y * l)
+        })
+        .collect();
     let Interaction::Lnl { lz, .. } = lnl(k) else {
         unreachable!("an LNL link")
     };
@@ -225,6 +245,7 @@ fn string(n: usize, law: Law) -> Model {
         Law::But => format!("string_but_N{n}"),
         Law::Lnl => format!("string_lnl_N{n}"),
         Law::LnlDrawn => format!("string_lnl_drawn_N{n}"),
+        Law::LnlFine => format!("string_lnl_fine_N{n}"),
         _ => unreachable!("a string's links are of one law"),
     };
     Model {
@@ -495,6 +516,7 @@ fn random(n: usize, law: Law) -> Model {
             Law::LnlStruck => format!("random_lnl_struck_N{n}"),
             Law::ButLnl => format!("random_but_lnl_N{n}"),
             Law::LnlDrawn => format!("random_lnl_drawn_N{n}"),
+            Law::LnlFine => format!("random_lnl_fine_N{n}"),
         },
         net,
         masses: n + usize::from(matches!(law, Law::Struck | Law::LnlStruck)),
@@ -1301,7 +1323,8 @@ fn usage() -> ! {
          [membrane [R C | RxC]] [rimmed|free|struck|pair|graded R C | RxC] [strings S N | SxN] \
          [random [N]] [random-but [N]] [random-lnl [N]] [random-struck [N]] \
          [random-lnl-mixed [N]] [random-lnl-halves [N]] [random-lnl-struck [N]] \
-         [random-but-lnl [N]] [lnl-drawn [N]] [random-lnl-drawn [N]]...\n(no model: every default model)\n   \
+         [random-but-lnl [N]] [lnl-drawn [N]] [random-lnl-drawn [N]] [lnl-fine [N]] \
+         [random-lnl-fine [N]]...\n(no model: every default model)\n   \
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
          threads, default N = 100000 masses, T = 2)\n   \
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
@@ -1323,10 +1346,11 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "but" => Some(Law::But),
             "lnl" => Some(Law::Lnl),
             "lnl-drawn" => Some(Law::LnlDrawn),
+            "lnl-fine" => Some(Law::LnlFine),
             "membrane" | "rimmed" | "free" | "struck" | "pair" | "graded" | "random"
             | "random-but" | "random-lnl" | "random-struck" | "random-lnl-mixed"
             | "random-lnl-halves" | "random-lnl-struck" | "random-but-lnl" | "random-lnl-drawn"
-            | "strings" => None,
+            | "random-lnl-fine" | "strings" => None,
             _ => usage(),
         };
         let random_law = match kind {
@@ -1338,6 +1362,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "random-lnl-struck" => Law::LnlStruck,
             "random-but-lnl" => Law::ButLnl,
             "random-lnl-drawn" => Law::LnlDrawn,
+            "random-lnl-fine" => Law::LnlFine,
             _ => Law::Ref,
         };
         let first = args.get(i).map(String::as_str);
@@ -1383,7 +1408,9 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             Some(Spec::Strings(_, n)) if n < 2 => usage(),
             Some(spec) => specs.push(spec),
             None if random_law != Law::Ref => specs.push(Spec::Random(10000, random_law)),
-            None if law == Some(Law::LnlDrawn) => specs.push(Spec::String(1000, Law::LnlDrawn)),
+            None if matches!(law, Some(Law::LnlDrawn | Law::LnlFine)) => {
+                specs.push(Spec::String(1000, law.expect("a law")))
+            }
             None => specs.extend(
                 DEFAULT_MODELS
                     .iter()

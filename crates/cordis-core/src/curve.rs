@@ -169,14 +169,26 @@ impl<const N: usize> ExactCurve<N> {
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     pub(crate) unsafe fn wide<V: Vector>(&self) -> WideCurve<V, N> {
-        // (the first `V::N` of each, for `WideCurve::eval`'s look-up)
-        let table = |a: &[f64; N]| V::load_part(&a[..N.min(V::N)]);
-        WideCurve {
-            xs: self.xs.map(|v| V::splat(v)),
-            ys: self.ys.map(|v| V::splat(v)),
-            slopes: self.slopes.map(|v| V::splat(v)),
-            table: [table(&self.xs), table(&self.ys), table(&self.slopes)],
+        // (loops, not `map` and closures: a closure is compiled without the caller's target
+        // features, and `map` of 16 was not inlined, so that each broadcast was a call; 4 % of
+        // the time of a string of 13-point curves, which builds its curves for each piece)
+        let mut w = WideCurve {
+            xs: [V::zero(); N],
+            ys: [V::zero(); N],
+            slopes: [V::zero(); N],
+            table: [[V::zero(); 2]; 3],
+        };
+        for j in 0..N {
+            w.xs[j] = V::splat(self.xs[j]);
+            w.ys[j] = V::splat(self.ys[j]);
+            w.slopes[j] = V::splat(self.slopes[j]);
         }
+        // (the first `2 V::N` of each, two vectors, for `WideCurve::eval`'s look-up)
+        for (t, a) in w.table.iter_mut().zip([&self.xs, &self.ys, &self.slopes]) {
+            let (lo, hi) = a.split_at(N.min(V::N));
+            *t = [V::load_part(lo), V::load_part(&hi[..hi.len().min(V::N)])];
+        }
+        w
     }
 }
 
@@ -189,16 +201,16 @@ pub(crate) struct WideCurve<V: Vector, const N: usize> {
     xs: [V; N],
     ys: [V; N],
     slopes: [V; N],
-    /// The first `V::N` abscissas, values and slopes, one vector each (`0.0` past `N`)
-    table: [V; 3],
+    /// The first `2 V::N` abscissas, values and slopes, two vectors each (`0.0` past `N`)
+    table: [[V; 2]; 3],
 }
 
 #[cfg(target_arch = "x86_64")]
 impl<V: Vector, const N: usize> WideCurve<V, N> {
     /// Whether [`WideCurve::eval`] looks segments up rather than selects them: for curves of
-    /// more than 4 points (3 selects a point against 2 operations, and 3 look-ups in all) whose
-    /// `N - 1` segments fit one vector.
-    const LOOKS_UP: bool = N > 4 && N - 1 <= V::N;
+    /// more than 4 points (3 selects and a compare a point, against 4 operations a halving and
+    /// 3 look-ups in all), a power of two up to [`Vector::LOOKUP`].
+    const LOOKS_UP: bool = N > 4 && N.is_power_of_two() && N <= V::LOOKUP;
 
     /// The value at each lane of `x`: [`ExactCurve::eval`]'s bits in each lane, for a curve
     /// that [`ExactCurve::widens`]. [`Vector::le`] is Rust's `<=` (false when either side is
@@ -219,9 +231,14 @@ impl<V: Vector, const N: usize> WideCurve<V, N> {
     /// value is `y[0]` plus a zero, `y[0]`, either way.
     ///
     /// A curve of more points looks its segment up ([`WideCurve::LOOKS_UP`]): the abscissas are
-    /// sorted, so the `j` in `1..N-1` with `x[j] <= x` are the first ones, and their count is the
-    /// last of them (or 0): the segment the selects keep. [`Vector::pick`] reads its `x[j]`,
-    /// `y[j]` and slope from the table, the numbers the selects would.
+    /// sorted and `x[0] <= x` (`x` raised), so the `j` with `x[j] <= x` are `0..=s` for some `s <
+    /// N`, which a binary search finds: `s` is in `i..i + 2h`, first `0..N` (`i = 0`, `h = N /
+    /// 2`); then if `x[i + h] <= x`, `s` is in `i + h..i + 2h`, else in `i..i + h`, which is
+    /// `i..i + 2h` again for the next `h`, half this one, down to `h = 1` (no index read is past
+    /// `N - 1`). Where `s < N - 1` it is the segment the selects keep (the last `j < N - 1`
+    /// with `x[j] <= x`); where `s = N - 1` the selects keep `N - 2`, but `x[N-1] <= x`, so
+    /// `within` is false and both give `y[N-1]`. [`Vector::pick`] (or [`Vector::pick2`]) reads
+    /// the `x[s]`, `y[s]` and slope from the table, the numbers the selects would.
     ///
     /// # Safety
     /// The CPU must have `V`'s instructions (see [`Vector`]).
@@ -232,12 +249,24 @@ impl<V: Vector, const N: usize> WideCurve<V, N> {
         }
         let x = x.max(self.xs[0]);
         let (x0, y, slope) = if Self::LOOKS_UP {
+            let pick = |[lo, hi]: [V; 2], i| {
+                if N <= V::N {
+                    lo.pick(i)
+                } else {
+                    lo.pick2(hi, i)
+                }
+            };
+            // (the first halving: `i + h` is `h` in every lane, `x[h]` broadcast)
+            let mut h = N / 2;
             let mut i = V::first();
-            for j in 1..N - 1 {
-                i = V::up(i, self.xs[j].le(x));
+            i = V::moved(i, self.xs[h].le(x), V::plus(i, h));
+            while h > 1 {
+                h /= 2;
+                let next = V::plus(i, h);
+                i = V::moved(i, pick(self.table[0], next).le(x), next);
             }
             let [xs, ys, slopes] = self.table;
-            (xs.pick(i), ys.pick(i), slopes.pick(i))
+            (pick(xs, i), pick(ys, i), pick(slopes, i))
         } else {
             let (mut x0, mut y, mut slope) = (self.xs[0], self.ys[0], self.slopes[0]);
             for j in 1..N - 1 {
@@ -495,13 +524,20 @@ mod tests {
             ],
             (0..7).map(|i| (i as f64 / 3.0, (i as f64).sin())).collect(),
             (0..8).map(|i| (i as f64, (i * i) as f64)).collect(),
+            (0..9).map(|i| (i as f64 - 4.5, (i as f64).cos())).collect(),
+            (0..13)
+                .map(|i| (((i / 2) * 2) as f64 * 0.25, (i % 5) as f64 - 2.0))
+                .collect(),
+            (0..16)
+                .map(|i| ((i as f64).sqrt(), i as f64 * -0.5))
+                .collect(),
         ];
         let mut xs = vec![f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 0.0, -0.0, 1e300];
         xs.extend(uniform(12345, 2000, 6.0));
         for pts in &curves {
             let c = Curve::new(pts).unwrap();
             xs.extend(pts.iter().map(|p| p.0));
-            // (each size the curve is exact at, or pads to: 2, 3, 4, 8)
+            // (each size the curve is exact at, or pads to: 2, 3, 4, 8, 16)
             let (e0, e2, e3, e4) = (
                 ExactCurve::<0>::new(&c),
                 ExactCurve::<2>::new(&c),
@@ -518,16 +554,23 @@ mod tests {
                 ]
             );
             assert!(ExactCurve::<1>::new(&c).is_none());
-            let (f2, f3, f4, f8) = (
+            let (f2, f3, f4, f8, f16) = (
                 ExactCurve::<2>::fitted(&c),
                 ExactCurve::<3>::fitted(&c),
                 ExactCurve::<4>::fitted(&c),
                 ExactCurve::<8>::fitted(&c),
+                ExactCurve::<16>::fitted(&c),
             );
             let fits = |m: usize| !pts.is_empty() && pts.len() <= m;
             assert_eq!(
-                [f2.is_some(), f3.is_some(), f4.is_some(), f8.is_some()],
-                [fits(2), fits(3), fits(4), fits(8)]
+                [
+                    f2.is_some(),
+                    f3.is_some(),
+                    f4.is_some(),
+                    f8.is_some(),
+                    f16.is_some()
+                ],
+                [fits(2), fits(3), fits(4), fits(8), fits(16)]
             );
             assert_eq!(ExactCurve::<0>::fitted(&c).is_some(), pts.is_empty());
             for &x in &xs {
@@ -541,14 +584,15 @@ mod tests {
                     f3.map(|e| e.eval(x)),
                     f4.map(|e| e.eval(x)),
                     f8.map(|e| e.eval(x)),
+                    f16.map(|e| e.eval(x)),
                 ];
                 for v in exact.into_iter().flatten() {
                     assert_eq!(v.to_bits(), want, "{pts:?} at {x} (exact)");
                 }
             }
         }
-        let nine: Vec<(f64, f64)> = (0..9).map(|i| (i as f64, 0.0)).collect();
-        assert!(ExactCurve::<8>::fitted(&Curve::new(&nine).unwrap()).is_none());
+        let seventeen: Vec<(f64, f64)> = (0..17).map(|i| (i as f64, 0.0)).collect();
+        assert!(ExactCurve::<16>::fitted(&Curve::new(&seventeen).unwrap()).is_none());
     }
 
     /// `WideCurve::eval` gives `Curve::eval`'s bits in every lane for the curves that widen,
@@ -558,7 +602,7 @@ mod tests {
     #[test]
     fn wide_curves_evaluate_to_the_same_bits() {
         // (points, whether they widen)
-        let curves: [(Vec<(f64, f64)>, bool); 14] = [
+        let curves: [(Vec<(f64, f64)>, bool); 18] = [
             (vec![], true),
             (vec![(-1.0, 0.5), (2.0, 1.0)], true),
             (vec![(-1.0, -0.1), (0.0, 0.0), (1.0, 0.1)], true),
@@ -599,6 +643,36 @@ mod tests {
                 vec![(-1.0, 1.0), (-1.0, 2.0), (0.0, 0.0), (1.0, 1.0), (2.0, 0.0)],
                 false,
             ),
+            // (9 to 16 points, padded to 16: jumps inside and at the end, a -0.0 value)
+            (
+                (0..9)
+                    .map(|i| (i as f64 * 0.75 - 3.0, (i as f64 * 0.9).sin()))
+                    .collect(),
+                true,
+            ),
+            (
+                (0..12)
+                    .map(|i| {
+                        let x = [
+                            -3.5, -3.0, -2.0, -1.0, -1.0, 0.0, 0.5, 1.0, 1.0, 2.5, 3.0, 3.0,
+                        ];
+                        (x[i], [0.5, -0.0, 1.0, 2.0][i % 4] - i as f64 * 0.125)
+                    })
+                    .collect(),
+                true,
+            ),
+            (
+                (0..16)
+                    .map(|i| ((i as f64).sqrt() - 2.0, (i as f64 - 7.0).powi(3)))
+                    .collect(),
+                true,
+            ),
+            (
+                (0..16)
+                    .map(|i| (((i + 1) / 2) as f64 - 4.0, if i == 0 { -0.0 } else { 1.0 }))
+                    .collect(),
+                false,
+            ),
         ];
         let xs = probes(777, 500, curves.iter().map(|c| &c.0[..]));
         let mut refused_differ = 0;
@@ -611,7 +685,8 @@ mod tests {
                 2 => wide_bits(&ExactCurve::<2>::new(&c).unwrap(), &xs, *widens),
                 3 => wide_bits(&ExactCurve::<3>::new(&c).unwrap(), &xs, *widens),
                 4 => wide_bits(&ExactCurve::<4>::new(&c).unwrap(), &xs, *widens),
-                _ => wide_bits(&ExactCurve::<8>::fitted(&c).unwrap(), &xs, *widens),
+                5..=8 => wide_bits(&ExactCurve::<8>::fitted(&c).unwrap(), &xs, *widens),
+                _ => wide_bits(&ExactCurve::<16>::fitted(&c).unwrap(), &xs, *widens),
             };
             let scalar: Vec<u64> = xs.iter().map(|&x| c.eval(x).to_bits()).collect();
             assert_eq!(want, scalar, "{pts:?}: ExactCurve::eval");

@@ -213,8 +213,8 @@ impl Cel {
 #[derive(Clone, Debug)]
 #[allow(clippy::large_enum_variant)] // (one per distinct law, read by value in the loops)
 enum Lnl {
-    /// both curves of at most 8 points (the usual springs, contacts, dampers and sticking
-    /// springs, and curves drawn point by point), each evaluated with selects in a loop the
+    /// both curves of at most 16 points (the usual springs, contacts, dampers and sticking
+    /// springs, and curves drawn point by point), each evaluated without a branch in a loop the
     /// compiler vectorises
     Exact(ExactPair),
     /// a curve of more points: [`Curve::eval`], one link at a time
@@ -234,6 +234,7 @@ macro_rules! exact_pairs {
     ($(($v:ident, $a:literal, $b:literal)),* $(,)?) => {
         #[derive(Clone, Copy, Debug)]
         #[allow(clippy::enum_variant_names)]
+        #[allow(clippy::large_enum_variant)] // (one per distinct law, read by value in the loops)
         enum ExactPair {
             $($v(ExactCurve<$a>, ExactCurve<$b>),)*
         }
@@ -241,8 +242,9 @@ macro_rules! exact_pairs {
         impl ExactPair {
             /// The pair of curves `k` and `z`, each padded ([`ExactCurve::fitted`]) to the
             /// smallest pair of point counts that holds them ([`ExactPair::shape`]: a curve of
-            /// 1 point is one of 2, of 5 to 8 points one of 8, and of 3 points next to one of 8
-            /// one of 4); `None` for curves of more than 8 points.
+            /// 1 point is one of 2, of 5 to 8 points one of 8, of 9 to 16 one of 16, and of 3
+            /// points next to one of 8 or 16 one of 4); `None` for curves of more than 16
+            /// points.
             fn new(k: &Curve, z: &Curve) -> Option<ExactPair> {
                 let (a, b) = Self::shape(k.len(), z.len())?;
                 $(
@@ -389,6 +391,13 @@ exact_pairs!(
     (P08, 0, 8),
     (P28, 2, 8),
     (P48, 4, 8),
+    (P16_0, 16, 0),
+    (P16_2, 16, 2),
+    (P16_4, 16, 4),
+    (P16_16, 16, 16),
+    (P0_16, 0, 16),
+    (P2_16, 2, 16),
+    (P4_16, 4, 16),
 );
 
 impl Lnl {
@@ -4192,7 +4201,7 @@ mod tests {
 
     /// Every vector width this CPU has steps to the same bits as the scalar build, on a string
     /// and a membrane whose links come in uniform and varied runs of every law (LNL curves of 2,
-    /// 3 and 9 points), BUT thresholds of both signs, an ENF input and every output kind.
+    /// 3 and 17 points), BUT thresholds of both signs, an ENF input and every output kind.
     #[test]
     fn every_vector_width_gives_the_same_bits() {
         // (rows of 40 and 43 masses: every loop has a remainder, which AVX-512 computes as one
@@ -4207,8 +4216,8 @@ mod tests {
                 })
                 .collect();
             let g = net.add_material(Material::Sol { x0: 0.0 });
-            let nine: Vec<(f64, f64)> = (0..9)
-                .map(|i| (i as f64 - 4.0, 0.02 * (i as f64 - 4.0)))
+            let seventeen: Vec<(f64, f64)> = (0..17)
+                .map(|i| (i as f64 * 0.5 - 4.0, 0.01 * (i as f64 - 8.0)))
                 .collect();
             let law = |i: usize| {
                 let w = 1.0 + 0.01 * (i % 5) as f64;
@@ -4229,7 +4238,7 @@ mod tests {
                         lz: Curve::new(&[(-1.0, -1e-4), (1.0, 1e-4)]).unwrap(),
                     },
                     _ => Interaction::Lnl {
-                        lk: Curve::new(&nine).unwrap(),
+                        lk: Curve::new(&seventeen).unwrap(),
                         lz: Curve::new(&[(-1.0, -1e-4), (1.0, 1e-4)]).unwrap(),
                     },
                 }
@@ -4963,7 +4972,7 @@ mod tests {
         let mut toggled = 0;
         // (kinds: 0 springs and dampers, 1 BUTs among them, 2 to 5 LNL networks of `mix` 0 to 3,
         // 6 one BUT among springs and dampers, 7 BUTs and LNLs among them, 8 an LNL network of
-        // four pairs of curves and one BUT, 9 and 10 LNL networks of `mix` 4 and 5: curves
+        // four pairs of curves and one BUT, 9 to 12 LNL networks of `mix` 4 to 7: curves
         // drawn point by point)
         for (seed, n, kind) in [
             (1, 16, 0),
@@ -4996,12 +5005,16 @@ mod tests {
             (28, 500, 9),
             (29, 123, 10),
             (30, 500, 10),
+            (31, 40, 11),
+            (32, 500, 11),
+            (33, 123, 12),
+            (34, 500, 12),
         ] {
             let net = match kind {
                 0 => springs(seed, n, None),
                 1 | 6 => but_springs(seed, n, kind == 1),
                 7 | 8 => but_lnl_springs(seed, n, kind == 8),
-                9 | 10 => lnl_springs(seed, n, kind - 5),
+                9..=12 => lnl_springs(seed, n, kind - 5),
                 _ => lnl_springs(seed, n, kind - 2),
             };
             let but_links: Vec<LinkId> = (0..net.links.len() as u32)
@@ -5030,11 +5043,12 @@ mod tests {
                     let (one, several) = pull.rows_of_pairs();
                     assert!(one > 0 && (n < 500 || several > 0), "network {seed}");
                 }
-                // (curves drawn point by point, padded to 8 points: one pair, or two)
+                // (curves drawn point by point, padded to 8 or 16 points: one pair, or two)
                 if kind >= 9 {
                     let k = usize::from(kind - 9);
-                    assert_eq!(pull.curve_pairs(), k + 1, "network {seed}");
-                    assert_eq!(pull.curve_points(), Some([(8, 4), (8, 8)][k]));
+                    assert_eq!(pull.curve_pairs(), k % 2 + 1, "network {seed}");
+                    let points = [(8, 4), (8, 8), (16, 2), (16, 16)][k];
+                    assert_eq!(pull.curve_points(), Some(points), "network {seed}");
                 }
                 // (rows with BUT and LNL lanes both)
                 if kind == 7 || kind == 8 {
@@ -5100,12 +5114,17 @@ mod tests {
     /// other point counts (padded to one), each third of the links of its own pair but every
     /// seventh link, of the fourth; 4, as 2 with one pair of curves drawn point by point (7 and
     /// 3 points, padded to 8 and 4); 5, as 4 with the last third of the links of a second pair of
-    /// 5 and 6 points (the table's pairs padded to 8 and 8).
+    /// 5 and 6 points (the table's pairs padded to 8 and 8); 6, as 2 with a finely drawn pair
+    /// (11 and 2 points, padded to 16 and 2); 7, as 6 with the last third of the links of 5's
+    /// second pair (padded to 16 and 16).
     fn lnl_springs(seed: u64, n: usize, mix: u8) -> Network {
         let mut net = springs(seed, n, None);
         let [mut lnl, mut others @ ..] = lnl_pairs();
-        if mix >= 4 {
-            [lnl, others[0]] = drawn_pairs();
+        let [first, second, fine] = drawn_pairs();
+        match mix {
+            4 | 5 => [lnl, others[0]] = [first, second],
+            6 | 7 => [lnl, others[0]] = [fine, second],
+            _ => {}
         }
         let count = net.links.len();
         for (i, link) in net.links.iter_mut().enumerate() {
@@ -5118,7 +5137,7 @@ mod tests {
                 link.law = match (mix, i % 7, i * 3 / count) {
                     (3, 3, _) => others[2].clone(),
                     (3, _, 1 | 2) => others[i * 3 / count - 1].clone(),
-                    (5, _, 2) => others[0].clone(),
+                    (5 | 7, _, 2) => others[0].clone(),
                     _ => lnl.clone(),
                 };
             }
@@ -5363,9 +5382,10 @@ mod tests {
         ]
     }
 
-    /// Two pairs of LNL curves drawn point by point, as a user draws a hardening spring: 7 and 3
-    /// points (the engine's curves of 8 and 4), and 5 (with a jump) and 6 points (8 and 8).
-    fn drawn_pairs() -> [Interaction; 2] {
+    /// Three pairs of LNL curves drawn point by point, as a user draws a hardening spring: 7 and
+    /// 3 points (the engine's curves of 8 and 4), 5 (with a jump) and 6 points (8 and 8), and,
+    /// drawn finely, 11 and 2 points (16 and 2).
+    fn drawn_pairs() -> [Interaction; 3] {
         let pair = |k: &[(f64, f64)], z: &[(f64, f64)]| Interaction::Lnl {
             lk: Curve::new(k).unwrap(),
             lz: Curve::new(z).unwrap(),
@@ -5399,6 +5419,22 @@ mod tests {
                     (0.002, 3e-6),
                     (0.004, 4e-6),
                 ],
+            ),
+            pair(
+                &[
+                    (-0.024, -2.2e-3),
+                    (-0.016, -1.1e-3),
+                    (-0.01, -5.5e-4),
+                    (-0.006, -2.6e-4),
+                    (-0.003, -1.1e-4),
+                    (0.0, 2e-6),
+                    (0.002, 7e-5),
+                    (0.005, 1.9e-4),
+                    (0.009, 4e-4),
+                    (0.015, 9e-4),
+                    (0.022, 1.7e-3),
+                ],
+                &[(-0.002, -2.5e-6), (0.003, 3.5e-6)],
             ),
         ]
     }
@@ -6297,6 +6333,27 @@ mod tests {
         let mut free = bank(1, 1100, lnl(drawn, drawn_damper));
         free_both(&mut free);
         nets.push(("1100 LNL 7 5, free ends".into(), free));
+        // finely drawn, of 9 to 16 points (padded to 16), with one of 2 or 0, or of 13
+        let fine: &[(f64, f64)] = &[
+            (-0.009, -1.4e-3),
+            (-0.006, -7e-4),
+            (-0.004, -3.8e-4),
+            (-0.0025, -2e-4),
+            (-0.001, -7e-5),
+            (0.0, 0.0),
+            (0.001, 8e-5),
+            (0.002, 1.7e-4),
+            (0.002, 2.2e-4),
+            (0.0035, 4e-4),
+            (0.005, 6.5e-4),
+            (0.007, 1e-3),
+            (0.009, 1.5e-3),
+        ];
+        nets.push(("800 LNL 13 2".into(), bank(1, 800, lnl(fine, linear))));
+        nets.push(("300 LNL 9 0".into(), bank(1, 300, lnl(&fine[2..11], &[]))));
+        let mut free = bank(1, 900, lnl(drawn, fine));
+        free_both(&mut free);
+        nets.push(("900 LNL 7 13, free ends".into(), free));
         let mut cut = bank(1, 200, lnl(spring, damper));
         let hammer = cut.add_material(Material::Mas {
             m: 2.0,
@@ -6391,7 +6448,7 @@ mod tests {
         assert_eq!(sheets(&one(15, &nothing)), 0);
         // a BUT link to a ground with the MAS at the other end than a neighbour's (its force is
         // not odd in its ends); the same for LNL, and LNL curves the grid step does not take (of
-        // 9 points, or not `ExactCurve::widens`: a first value of `-0.0`), or two of them
+        // 17 points, or not `ExactCurve::widens`: a first value of `-0.0`), or two of them
         let but = |_| Interaction::But {
             k: 0.1,
             z: 1e-4,
@@ -6404,19 +6461,29 @@ mod tests {
         let mut turned_lnl = bank(1, 100, lnl(spring, damper));
         turned(&mut turned_lnl);
         assert_eq!(sheets(&turned_lnl), 0);
-        let nine: &[(f64, f64)] = &[
-            (-4.0, -1.0),
-            (-3.0, -0.5),
-            (-2.0, -0.25),
-            (-1.0, 0.0),
+        // (`(i / 2, (i / 4)^3)` for `i` in `-8..=8`)
+        let seventeen: &[(f64, f64)] = &[
+            (-4.0, -8.0),
+            (-3.5, -5.359375),
+            (-3.0, -3.375),
+            (-2.5, -1.953125),
+            (-2.0, -1.0),
+            (-1.5, -0.421875),
+            (-1.0, -0.125),
+            (-0.5, -0.015625),
             (0.0, 0.0),
-            (1.0, 0.0),
-            (2.0, 0.25),
-            (3.0, 0.5),
-            (4.0, 1.0),
+            (0.5, 0.015625),
+            (1.0, 0.125),
+            (1.5, 0.421875),
+            (2.0, 1.0),
+            (2.5, 1.953125),
+            (3.0, 3.375),
+            (3.5, 5.359375),
+            (4.0, 8.0),
         ];
-        assert_eq!(sheets(&bank(1, 100, lnl(nine, damper))), 0);
-        assert_eq!(sheets(&bank(1, 100, lnl(&nine[1..], damper))), 1);
+        assert_eq!(sheets(&bank(1, 100, lnl(seventeen, damper))), 0);
+        assert_eq!(sheets(&bank(1, 100, lnl(&seventeen[1..], damper))), 1);
+        assert_eq!(sheets(&bank(1, 100, lnl(&seventeen[4..13], damper))), 1);
         let minus_zero: &[(f64, f64)] = &[(-1.0, -0.0), (1.0, 1.0)];
         assert_eq!(sheets(&bank(1, 100, lnl(spring, minus_zero))), 0);
         // (a `-0.0` value in both curves: the force may be `-0.0`)

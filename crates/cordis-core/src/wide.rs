@@ -24,6 +24,9 @@ pub(crate) trait Vector: Copy {
     const N: usize;
     /// Whether [`Vector::next1`] is one instruction (else two, across the halves of the vector).
     const SHIFT_IS_ONE: bool;
+    /// The most points of a curve whose segment `WideCurve::eval` looks up, in a table of two
+    /// vectors at most ([`Vector::pick2`]); 0 where it selects segments whatever the curve.
+    const LOOKUP: usize;
     /// A set of lanes (the result of a compare).
     type Mask: Copy;
     /// An index into `N` numbers in each lane ([`Vector::pick`]).
@@ -64,10 +67,15 @@ pub(crate) trait Vector: Copy {
     unsafe fn prev1(self, b: Self) -> Self;
     /// Index 0 in every lane.
     unsafe fn first() -> Self::Index;
-    /// `i + 1` in the lanes `m`, `i` in the others.
-    unsafe fn up(i: Self::Index, m: Self::Mask) -> Self::Index;
+    /// `i + h` in every lane (`i + h` at most `2 N`).
+    unsafe fn plus(i: Self::Index, h: usize) -> Self::Index;
+    /// `to` in the lanes `m`, `i` in the others.
+    unsafe fn moved(i: Self::Index, m: Self::Mask, to: Self::Index) -> Self::Index;
     /// `self[i[j]]` in each lane `j` (each `i[j] < N`).
     unsafe fn pick(self, i: Self::Index) -> Self;
+    /// `t[i[j]]` in each lane `j`, where `t` is the `2 N` numbers of `self` then `hi` (each
+    /// `i[j] < 2 N`).
+    unsafe fn pick2(self, hi: Self, i: Self::Index) -> Self;
 }
 
 /// Eight lanes: AVX-512F.
@@ -84,6 +92,7 @@ pub(crate) struct V4(pub(crate) __m256d);
 impl Vector for V8 {
     const N: usize = 8;
     const SHIFT_IS_ONE: bool = true;
+    const LOOKUP: usize = 16;
     type Mask = __mmask8;
     type Index = __m512i;
 
@@ -167,15 +176,24 @@ impl Vector for V8 {
     unsafe fn first() -> __m512i {
         _mm512_setzero_si512()
     }
-    /// A masked `vpaddq`.
     #[inline(always)]
-    unsafe fn up(i: __m512i, m: __mmask8) -> __m512i {
-        _mm512_mask_add_epi64(i, m, i, _mm512_set1_epi64(1))
+    unsafe fn plus(i: __m512i, h: usize) -> __m512i {
+        _mm512_add_epi64(i, _mm512_set1_epi64(h as i64))
+    }
+    /// A masked `vmovdqa64`.
+    #[inline(always)]
+    unsafe fn moved(i: __m512i, m: __mmask8, to: __m512i) -> __m512i {
+        _mm512_mask_mov_epi64(i, m, to)
     }
     /// One `vpermpd`.
     #[inline(always)]
     unsafe fn pick(self, i: __m512i) -> Self {
         V8(_mm512_permutexvar_pd(i, self.0))
+    }
+    /// One `vpermt2pd` (bit 3 of each index chooses `hi`).
+    #[inline(always)]
+    unsafe fn pick2(self, hi: Self, i: __m512i) -> Self {
+        V8(_mm512_permutex2var_pd(self.0, i, hi.0))
     }
 }
 
@@ -190,6 +208,9 @@ unsafe fn mask4(n: usize) -> __m256i {
 impl Vector for V4 {
     const N: usize = 4;
     const SHIFT_IS_ONE: bool = false;
+    /// (an index costs four integer operations before each `vpermd`, two `vpermd` and a blend
+    /// for two vectors: no fewer than the selects)
+    const LOOKUP: usize = 0;
     type Mask = __m256d;
     type Index = __m256i;
 
@@ -279,12 +300,18 @@ impl Vector for V4 {
     unsafe fn first() -> __m256i {
         _mm256_setzero_si256()
     }
-    /// `i - m`: a set lane of `m` is all ones, `-1`.
     #[inline(always)]
-    unsafe fn up(i: __m256i, m: __m256d) -> __m256i {
-        _mm256_sub_epi64(i, _mm256_castpd_si256(m))
+    unsafe fn plus(i: __m256i, h: usize) -> __m256i {
+        _mm256_add_epi64(i, _mm256_set1_epi64x(h as i64))
     }
-    /// `vpermd` of the 32-bit halves: lane `j` takes halves `2 i[j]` and `2 i[j] + 1`.
+    /// `vblendvpd`, by the sign bit of each lane of `m` (all ones or all zeros).
+    #[inline(always)]
+    unsafe fn moved(i: __m256i, m: __m256d, to: __m256i) -> __m256i {
+        let (i, to) = (_mm256_castsi256_pd(i), _mm256_castsi256_pd(to));
+        _mm256_castpd_si256(_mm256_blendv_pd(i, to, m))
+    }
+    /// `vpermd` of the 32-bit halves: lane `j` takes halves `2 i[j]` and `2 i[j] + 1`, modulo
+    /// 8 (`vpermd` reads the low 3 bits of each index), so an index `4 + k` reads lane `k`.
     #[inline(always)]
     unsafe fn pick(self, i: __m256i) -> Self {
         let low = _mm256_slli_epi64::<1>(i);
@@ -292,6 +319,12 @@ impl Vector for V4 {
         let halves = _mm256_or_si256(low, high);
         let t = _mm256_castpd_si256(self.0);
         V4(_mm256_castsi256_pd(_mm256_permutevar8x32_epi32(t, halves)))
+    }
+    /// Lane `i[j] mod 4` of `self` and of `hi` ([`V4::pick`]), `hi`'s where `i[j] > 3`.
+    #[inline(always)]
+    unsafe fn pick2(self, hi: Self, i: __m256i) -> Self {
+        let high = _mm256_castsi256_pd(_mm256_cmpgt_epi64(i, _mm256_set1_epi64x(3)));
+        V4(_mm256_blendv_pd(self.pick(i).0, hi.pick(i).0, high))
     }
 }
 
@@ -417,22 +450,39 @@ mod tests {
         let mut out = vec![0.0; n];
         vb.store(out.as_mut_ptr());
         assert_eq!(out, b);
-        // indexes: counted up lane by lane, then picking from a table (NaN bits included)
-        let table: Vec<f64> = (0..n).map(|i| odd[(3 * i + 2) % 8]).collect();
-        let vt = V::load(table.as_ptr());
+        // indexes: moved lane by lane, then picking from a table of one vector or two (NaN
+        // bits included)
+        let table: Vec<f64> = (0..2 * n)
+            .map(|i| odd[(3 * i + 2) % 8] + i as f64)
+            .collect();
+        let (lo, hi) = (V::load(table.as_ptr()), V::load(table[n..].as_ptr()));
         let mut i = V::first();
-        let mut count = vec![0; n];
-        for m in [vx.le(vy), vx.lt(vy), V::lane(n - 1), V::lane(0), V::lane(1)] {
-            i = V::up(i, m);
+        let mut index = vec![0; n];
+        let moves = [vx.le(vy), vx.lt(vy), V::lane(n - 1), V::lane(0), V::lane(1)];
+        for (step, m) in moves.into_iter().enumerate() {
+            let to = V::plus(i, step + 1);
+            i = V::moved(i, m, to);
             let set = lanes(V::zero().select(m, V::splat(1.0)));
-            for (c, s) in count.iter_mut().zip(set) {
-                *c += usize::from(s == 1.0);
+            for (c, s) in index.iter_mut().zip(set) {
+                *c += if s == 1.0 { step + 1 } else { 0 };
             }
-            let want: Vec<f64> = count.iter().map(|&c| table[c % n]).collect();
-            if count.iter().all(|&c| c < n) {
-                assert_eq!(bits(&lanes(vt.pick(i))), bits(&want), "{count:?}");
+            if index.iter().all(|&c| c < n) {
+                let want: Vec<f64> = index.iter().map(|&c| table[c]).collect();
+                assert_eq!(bits(&lanes(lo.pick(i))), bits(&want), "{index:?}");
+            }
+            if index.iter().all(|&c| c < 2 * n) {
+                let want: Vec<f64> = index.iter().map(|&c| table[c]).collect();
+                assert_eq!(bits(&lanes(lo.pick2(hi, i))), bits(&want), "{index:?}");
             }
         }
-        assert!(count.iter().any(|&c| c >= 2), "{count:?}");
+        assert!(index.iter().any(|&c| c >= 5), "{index:?}");
+        // every index of two vectors in every lane
+        for (k, &t) in table.iter().enumerate() {
+            let ks = V::plus(V::first(), k);
+            assert_eq!(bits(&lanes(lo.pick2(hi, ks))), bits(&vec![t; n]), "{k}");
+            if k < n {
+                assert_eq!(bits(&lanes(lo.pick(ks))), bits(&vec![t; n]), "{k}");
+            }
+        }
     }
 }

@@ -403,10 +403,17 @@ fn spring_networks_equal_the_reference() {
         let moved = equals_reference_in_blocks(&net, 1500, &what);
         assert!(moved > net.outputs.len() / 2, "{what}");
     }
-    // with LNL links of curves drawn point by point (5 to 8 points), of one pair or two
-    for (seed, n, inertia, two) in [(40, 100, 0, false), (41, 333, 1, true), (42, 700, 3, true)] {
-        let net = drawn_lnl_network(seed, n, inertia, two);
-        let what = format!("LNL drawn, seed {seed}, {n} MAS, inertia {inertia}, two {two}");
+    // with LNL links of curves drawn point by point (5 to 12 points), of one pair or several
+    for (seed, n, inertia, pairs) in [
+        (40, 100, 0, &[0][..]),
+        (41, 333, 1, &[0, 1]),
+        (42, 700, 3, &[1, 0]),
+        (43, 100, 2, &[2]),
+        (44, 333, 0, &[2, 0, 1]),
+        (45, 700, 1, &[2]),
+    ] {
+        let net = drawn_lnl_network(seed, n, inertia, pairs);
+        let what = format!("LNL drawn, seed {seed}, {n} MAS, inertia {inertia}, pairs {pairs:?}");
         let moved = equals_reference_in_blocks(&net, 1500, &what);
         assert!(moved > net.outputs.len() / 2, "{what}");
     }

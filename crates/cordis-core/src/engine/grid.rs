@@ -65,7 +65,7 @@
 //! **Strings.** A string is a sheet too ([`Sheet::string_at`]): at least [`COLS_MIN`] MAS in
 //! consecutive storage slots, each tied to the next by a link of one law and parameters (end 1
 //! the MAS before): REF of one `K`, `Z`; BUT of one `K`, `Z`, `S`; or LNL of one pair of curves
-//! of at most 8 points that [`ExactCurve::widens`] ([`Strand`]). Each MAS sums its links to
+//! of at most 16 points that [`ExactCurve::widens`] ([`Strand`]). Each MAS sums its links to
 //! the MAS before and after it (in either order: two terms from `+0.0` commute, see
 //! [`Sheet::piece`]), its first and last MAS tied to a SOL or free, any other terms a fix. Its
 //! "rows" are pieces of about [`PIECE`] MAS one after the other (`Sheet::starts`), which the
@@ -121,8 +121,8 @@ const PIECE: usize = 1024;
 const FREE: u32 = u32::MAX;
 
 /// The law of a sheet's links, with its `K` and `Z` (`Sheet::k`, `Sheet::z`): a membrane's are
-/// REF; a string's REF, BUT (threshold `s`) or LNL (curves of at most 8 points, boxed: a pair
-/// of 8 and 8 points is 392 bytes).
+/// REF; a string's REF, BUT (threshold `s`) or LNL (curves of at most 16 points, boxed: a pair
+/// of 16 and 16 points is 776 bytes).
 #[derive(Clone, Debug)]
 enum Strand {
     Ref,

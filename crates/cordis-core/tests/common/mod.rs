@@ -796,53 +796,70 @@ pub fn lnl_network(seed: u64, n: usize, inertia: u8, all: bool, uniform: bool) -
     net
 }
 
-/// [`spring_network`] with LNL links of curves drawn point by point, as a user draws a softening
-/// then hardening spring (8 points, and a viscous curve of 2): two links in three; with `two`,
-/// every other one of them of a second pair (6 points, a jump among them, and 5), which the engine
-/// pads to one shape (8 and 8).
-pub fn drawn_lnl_network(seed: u64, n: usize, inertia: u8, two: bool) -> Network {
+/// [`spring_network`] with LNL links of curves drawn point by point, two links in three, of the
+/// pairs `pairs` (indexes, taken in turn): 0, a softening then hardening spring (8 points, and a
+/// viscous curve of 2); 1, a spring of 6 points, a jump among them, and a viscous curve of 5; 2,
+/// a finely drawn spring (12 points) and a viscous curve of 3. The engine pads several pairs to one
+/// shape: 0 and 1 to 8 and 8, 2 alone to 16 and 4, 2 with another to 16 and 16.
+pub fn drawn_lnl_network(seed: u64, n: usize, inertia: u8, pairs: &[usize]) -> Network {
     let mut net = spring_network(seed, n, 4, inertia, false);
     let pair = |k: &[(f64, f64)], z: &[(f64, f64)]| Interaction::Lnl {
         lk: Curve::new(k).expect("a curve"),
         lz: Curve::new(z).expect("a curve"),
     };
-    let first = pair(
-        &[
-            (-0.03, -2.4e-3),
-            (-0.015, -9e-4),
-            (-0.006, -3e-4),
-            (-0.001, -4e-5),
-            (0.002, 8e-5),
-            (0.008, 2.5e-4),
-            (0.016, 8e-4),
-            (0.025, 2e-3),
-        ],
-        &[(-0.003, -6e-6), (0.003, 5e-6)],
-    );
-    let second = pair(
-        &[
-            (-0.02, -1.5e-3),
-            (-0.008, -4e-4),
-            (0.0, -1e-5),
-            (0.0, 1e-5),
-            (0.009, 5e-4),
-            (0.02, 1.4e-3),
-        ],
-        &[
-            (-0.004, -6e-6),
-            (-0.001, -2e-6),
-            (0.0, 0.0),
-            (0.002, 3e-6),
-            (0.005, 7e-6),
-        ],
-    );
+    let drawn = [
+        pair(
+            &[
+                (-0.03, -2.4e-3),
+                (-0.015, -9e-4),
+                (-0.006, -3e-4),
+                (-0.001, -4e-5),
+                (0.002, 8e-5),
+                (0.008, 2.5e-4),
+                (0.016, 8e-4),
+                (0.025, 2e-3),
+            ],
+            &[(-0.003, -6e-6), (0.003, 5e-6)],
+        ),
+        pair(
+            &[
+                (-0.02, -1.5e-3),
+                (-0.008, -4e-4),
+                (0.0, -1e-5),
+                (0.0, 1e-5),
+                (0.009, 5e-4),
+                (0.02, 1.4e-3),
+            ],
+            &[
+                (-0.004, -6e-6),
+                (-0.001, -2e-6),
+                (0.0, 0.0),
+                (0.002, 3e-6),
+                (0.005, 7e-6),
+            ],
+        ),
+        pair(
+            &[
+                (-0.028, -2.1e-3),
+                (-0.02, -1.2e-3),
+                (-0.013, -6e-4),
+                (-0.008, -3.1e-4),
+                (-0.004, -1.4e-4),
+                (-0.001, -3e-5),
+                (0.001, 3.5e-5),
+                (0.003, 1e-4),
+                (0.007, 2.6e-4),
+                (0.012, 5.5e-4),
+                (0.018, 1.1e-3),
+                (0.026, 1.9e-3),
+            ],
+            &[(-0.002, -3e-6), (0.0, 0.0), (0.003, 5e-6)],
+        ),
+    ];
+    let mut turn = pairs.iter().cycle();
     for (i, link) in net.links.iter_mut().enumerate() {
         if i % 3 != 0 {
-            link.law = if two && i % 2 == 0 {
-                second.clone()
-            } else {
-                first.clone()
-            };
+            link.law = drawn[*turn.next().expect("a pair")].clone();
         }
     }
     net
