@@ -207,6 +207,20 @@ pub(crate) struct WideCurve<V: Vector, const N: usize> {
 
 #[cfg(target_arch = "x86_64")]
 impl<V: Vector, const N: usize> WideCurve<V, N> {
+    /// The number at index `i` (each lane's) of a table of `N` numbers in one vector or two
+    /// (a function, not a closure, so that it has the caller's target features).
+    ///
+    /// # Safety
+    /// The CPU must have `V`'s instructions (see [`Vector`]).
+    #[inline(always)]
+    unsafe fn pick([lo, hi]: [V; 2], i: V::Index) -> V {
+        if N <= V::N {
+            lo.pick(i)
+        } else {
+            lo.pick2(hi, i)
+        }
+    }
+
     /// Whether [`WideCurve::eval`] looks segments up rather than selects them: for curves of
     /// more than 4 points (3 selects and a compare a point, against 4 operations a halving and
     /// 3 look-ups in all), a power of two up to [`Vector::LOOKUP`].
@@ -249,13 +263,7 @@ impl<V: Vector, const N: usize> WideCurve<V, N> {
         }
         let x = x.max(self.xs[0]);
         let (x0, y, slope) = if Self::LOOKS_UP {
-            let pick = |[lo, hi]: [V; 2], i| {
-                if N <= V::N {
-                    lo.pick(i)
-                } else {
-                    lo.pick2(hi, i)
-                }
-            };
+            let pick = Self::pick;
             // (the first halving: `i + h` is `h` in every lane, `x[h]` broadcast)
             let mut h = N / 2;
             let mut i = V::first();
