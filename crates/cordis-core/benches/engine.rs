@@ -93,6 +93,8 @@ enum Law {
     LnlDrawn,
     /// LNL links of curves drawn finely ([`fine`]): 13 points, and `Lnl`'s viscous curve
     LnlFine,
+    /// LNL links of curves sampled ([`sampled`]): 33 points, and `Lnl`'s viscous curve
+    LnlLong,
 }
 
 impl Law {
@@ -108,6 +110,7 @@ impl Law {
             Law::Lnl => lnl(K),
             Law::LnlDrawn => drawn(K),
             Law::LnlFine => fine(K),
+            Law::LnlLong => sampled(K),
         }
     }
 }
@@ -144,6 +147,13 @@ fn fine(k: f64) -> Interaction {
     let at = [0.0, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0];
     let mut ts: Vec<f64> = at.iter().rev().map(|t| -t).collect();
     ts.extend(&at[1..]);
+    hardening(k, &ts)
+}
+
+/// An LNL link of a 33-point stiffness curve, [`drawn`]'s spring sampled every L/8 from -2L to
+/// 2L, as a curve computed from a formula is.
+fn sampled(k: f64) -> Interaction {
+    let ts: Vec<f64> = (-16..=16).map(|i| f64::from(i) / 8.0).collect();
     hardening(k, &ts)
 }
 
@@ -246,6 +256,7 @@ fn string(n: usize, law: Law) -> Model {
         Law::Lnl => format!("string_lnl_N{n}"),
         Law::LnlDrawn => format!("string_lnl_drawn_N{n}"),
         Law::LnlFine => format!("string_lnl_fine_N{n}"),
+        Law::LnlLong => format!("string_lnl_long_N{n}"),
         _ => unreachable!("a string's links are of one law"),
     };
     Model {
@@ -517,6 +528,7 @@ fn random(n: usize, law: Law) -> Model {
             Law::ButLnl => format!("random_but_lnl_N{n}"),
             Law::LnlDrawn => format!("random_lnl_drawn_N{n}"),
             Law::LnlFine => format!("random_lnl_fine_N{n}"),
+            Law::LnlLong => format!("random_lnl_long_N{n}"),
         },
         net,
         masses: n + usize::from(matches!(law, Law::Struck | Law::LnlStruck)),
@@ -1324,7 +1336,7 @@ fn usage() -> ! {
          [random [N]] [random-but [N]] [random-lnl [N]] [random-struck [N]] \
          [random-lnl-mixed [N]] [random-lnl-halves [N]] [random-lnl-struck [N]] \
          [random-but-lnl [N]] [lnl-drawn [N]] [random-lnl-drawn [N]] [lnl-fine [N]] \
-         [random-lnl-fine [N]]...\n(no model: every default model)\n   \
+         [random-lnl-fine [N]] [lnl-long [N]] [random-lnl-long [N]]...\n(no model: every default model)\n   \
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
          threads, default N = 100000 masses, T = 2)\n   \
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
@@ -1347,10 +1359,11 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "lnl" => Some(Law::Lnl),
             "lnl-drawn" => Some(Law::LnlDrawn),
             "lnl-fine" => Some(Law::LnlFine),
+            "lnl-long" => Some(Law::LnlLong),
             "membrane" | "rimmed" | "free" | "struck" | "pair" | "graded" | "random"
             | "random-but" | "random-lnl" | "random-struck" | "random-lnl-mixed"
             | "random-lnl-halves" | "random-lnl-struck" | "random-but-lnl" | "random-lnl-drawn"
-            | "random-lnl-fine" | "strings" => None,
+            | "random-lnl-fine" | "random-lnl-long" | "strings" => None,
             _ => usage(),
         };
         let random_law = match kind {
@@ -1363,6 +1376,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "random-but-lnl" => Law::ButLnl,
             "random-lnl-drawn" => Law::LnlDrawn,
             "random-lnl-fine" => Law::LnlFine,
+            "random-lnl-long" => Law::LnlLong,
             _ => Law::Ref,
         };
         let first = args.get(i).map(String::as_str);
@@ -1408,7 +1422,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             Some(Spec::Strings(_, n)) if n < 2 => usage(),
             Some(spec) => specs.push(spec),
             None if random_law != Law::Ref => specs.push(Spec::Random(10000, random_law)),
-            None if matches!(law, Some(Law::LnlDrawn | Law::LnlFine)) => {
+            None if matches!(law, Some(Law::LnlDrawn | Law::LnlFine | Law::LnlLong)) => {
                 specs.push(Spec::String(1000, law.expect("a law")))
             }
             None => specs.extend(

@@ -291,6 +291,214 @@ impl<V: Vector, const N: usize> WideCurve<V, N> {
     }
 }
 
+/// A curve of any number of points prepared for the vector paths (the engine gives them curves
+/// of more points than an [`ExactCurve`] holds): [`LongCurve::wide`] evaluates it several
+/// abscissas at a time, [`Curve::eval`]'s bits, finding each lane's segment by a binary search of
+/// indexed loads. The abscissas, values and slopes are each padded to `P`, the smallest power of
+/// two at least `n - 1` (and at least 1), with the last point repeated (slope `0.0`).
+#[derive(Clone, Debug)]
+pub(crate) struct LongCurve {
+    /// Points (`n`).
+    n: usize,
+    /// `P`.
+    segs: usize,
+    /// `x[0..P]`, `y[0..P]`, then `slope[0..P]` (a zero curve: `[0.0; 3]`).
+    table: Box<[f64]>,
+    /// The last point, `(x[n-1], y[n-1])` (`P` may be `n - 1`, the table without it).
+    last: (f64, f64),
+}
+
+impl LongCurve {
+    /// The curve `c`, padded.
+    pub(crate) fn new(c: &Curve) -> LongCurve {
+        let (xs, ys, slopes) = (c.xs(), c.ys(), c.slopes());
+        let n = xs.len();
+        let segs = n.saturating_sub(1).max(1).next_power_of_two();
+        let mut table = vec![0.0; 3 * segs];
+        if n > 0 {
+            for i in 0..segs {
+                let j = i.min(n - 1);
+                table[i] = xs[j];
+                table[segs + i] = ys[j];
+                table[2 * segs + i] = if i + 1 < n { slopes[i] } else { 0.0 };
+            }
+        }
+        LongCurve {
+            n,
+            segs,
+            table: table.into(),
+            last: n.checked_sub(1).map_or((0.0, 0.0), |l| (xs[l], ys[l])),
+        }
+    }
+
+    /// Whether [`WideLong::eval`] gives [`Curve::eval`]'s bits: as [`ExactCurve::widens`] (a
+    /// zero or one-point curve, or a first segment of a width, a finite slope, and a first value
+    /// other than `-0.0`).
+    pub(crate) fn widens(&self) -> bool {
+        let t = &self.table;
+        let s = self.segs;
+        self.n < 2 || (t[0] < t[1] && t[2 * s].is_finite() && t[s].to_bits() != (-0.0f64).to_bits())
+    }
+
+    /// Whether [`Curve::eval`] (and [`WideLong::eval`]) never gives `-0.0`, as
+    /// [`ExactCurve::never_minus_zero`]: no value is `-0.0`.
+    pub(crate) fn never_minus_zero(&self) -> bool {
+        let s = self.segs;
+        self.n == 0
+            || self.table[s..2 * s]
+                .iter()
+                .all(|y| y.to_bits() != (-0.0f64).to_bits())
+    }
+
+    /// Whether `other` has the same points, bit for bit.
+    pub(crate) fn same_bits(&self, other: &LongCurve) -> bool {
+        let bits = |(x, y): (f64, f64)| (x.to_bits(), y.to_bits());
+        self.n == other.n
+            && self.segs == other.segs
+            && bits(self.last) == bits(other.last)
+            && (self.table.iter().zip(other.table.iter())).all(|(a, b)| a.to_bits() == b.to_bits())
+    }
+
+    /// The curve's table and the numbers [`WideLong::eval`] broadcasts.
+    ///
+    /// # Safety
+    /// The CPU must have `V`'s instructions (see [`Vector`]).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn wide<V: Vector>(&self) -> WideLong<'_, V> {
+        let (s, t) = (self.segs, &self.table);
+        let c = 2 * V::N;
+        // (up to `2 V::N` numbers as two vectors, `0.0` past them)
+        let two = |a: &[f64]| {
+            let (lo, hi) = a.split_at(a.len().min(V::N));
+            [V::load_part(lo), V::load_part(hi)]
+        };
+        let mut lookup = [[V::zero(); 2]; 3];
+        if s <= c {
+            for (k, l) in lookup.iter_mut().enumerate() {
+                *l = two(&t[k * s..k * s + s]);
+            }
+        } else {
+            let mut coarse = [0.0; 16];
+            for (j, x) in coarse.iter_mut().enumerate().take(c) {
+                *x = t[j * (s / c)];
+            }
+            lookup[0] = two(&coarse[..c]);
+        }
+        WideLong {
+            n: self.n,
+            segs: s,
+            table: t,
+            lookup,
+            x0: V::splat(t[0]),
+            mid: V::splat(t[s / 2]),
+            x_last: V::splat(self.last.0),
+            y_last: V::splat(self.last.1),
+        }
+    }
+}
+
+/// A [`LongCurve`] for several abscissas at a time ([`LongCurve::wide`]).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+pub(crate) struct WideLong<'a, V: Vector> {
+    n: usize,
+    segs: usize,
+    table: &'a [f64],
+    /// With `P <= 2 V::N` the table's abscissas, values and slopes, two vectors each; else the
+    /// `2 V::N` abscissas `x[j P / (2 V::N)]` (the *coarse* ones).
+    lookup: [[V; 2]; 3],
+    /// `x[0]`, `x[P/2]`, `x[n-1]`, `y[n-1]` in every lane.
+    x0: V,
+    mid: V,
+    x_last: V,
+    y_last: V,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl<V: Vector> WideLong<'_, V> {
+    /// The value at each lane of `x`: [`Curve::eval`]'s bits in each lane, for a curve that
+    /// [`LongCurve::widens`], by [`WideCurve::eval`]'s arithmetic. `x` is first raised to `x[0]`
+    /// (a NaN too: `max` gives its second operand), which changes no value (see
+    /// `WideCurve::eval`; a one-point curve is `y[0]` everywhere, and the raised `x` is never
+    /// below `x[0]`); then the segment `i` is the last of `0..P` with `x[i] <= x`, found by
+    /// halving (`i = 0`; for `h = P/2, P/4, .., 1`, `i + h` where `x[i + h] <= x`: a binary
+    /// search over sorted abscissas). The first halving compares `x[P/2]` broadcast; with `P <=
+    /// 2 V::N` the others and the segment's numbers are looked up in two vectors
+    /// ([`Vector::pick2`]); else the halvings down to `P / (2 V::N)` look the coarse abscissas
+    /// up (`j` counts coarse abscissas, `i = j P / (2 V::N)`: the same comparisons), and the
+    /// rest and the segment's numbers are gathered from the table. Where
+    /// `x < x[n-1]` (`within`) that is the segment [`Curve::eval`] takes, its last point `<= x`
+    /// (the points from `n - 1` on, and any padding, `x[n-1]`, are not `<= x`); the value is
+    /// then `y + (x - x[i]) slope`, and elsewhere `y[n-1]`, as `Curve::eval` at or past the last
+    /// point (the raised `x` is never NaN). Every index is below `P` (a sum of distinct
+    /// halvings), within the table.
+    ///
+    /// # Safety
+    /// The CPU must have `V`'s instructions (see [`Vector`]).
+    #[inline(always)]
+    pub(crate) unsafe fn eval(&self, x: V) -> V {
+        if self.n == 0 {
+            return V::zero();
+        }
+        let s = self.segs;
+        let t = self.table.as_ptr();
+        assert!(self.table.len() == 3 * s);
+        let x = x.max(self.x0);
+        let c = 2 * V::N;
+        let [_, ys, slopes] = self.lookup;
+        let xs = self.lookup[0];
+        let (x0, y, slope) = if s <= c {
+            let i = self.search(x, s / 2);
+            (
+                xs[0].pick2(xs[1], i),
+                ys[0].pick2(ys[1], i),
+                slopes[0].pick2(slopes[1], i),
+            )
+        } else {
+            let stride = s / c;
+            let mut i = V::times(self.search(x, c / 2), stride.trailing_zeros());
+            let mut h = stride;
+            while h > 1 {
+                h /= 2;
+                let next = V::plus(i, h);
+                // SAFETY: each index is below `P` (above), and `t` has `3 P` numbers (asserted).
+                i = V::moved(i, V::gather(t, next).le(x), next);
+            }
+            // SAFETY: as above, the indices below `P` of each third of the table.
+            (
+                V::gather(t, i),
+                V::gather(t.add(s), i),
+                V::gather(t.add(2 * s), i),
+            )
+        };
+        let along = y.add(x.sub(x0).mul(slope));
+        let within = x.lt(self.x_last);
+        self.y_last.select(within, along)
+    }
+
+    /// The halvings of `eval` from `h` (`P / 2`, or `V::N`) down, over the first table of
+    /// `lookup` (the first from `x[P/2]` broadcast): an index below `2 h` in each lane (a
+    /// function, not a closure, so that it has the caller's target features).
+    ///
+    /// # Safety
+    /// The CPU must have `V`'s instructions (see [`Vector`]).
+    #[inline(always)]
+    unsafe fn search(&self, x: V, mut h: usize) -> V::Index {
+        let xs = self.lookup[0];
+        let mut i = V::first();
+        if h > 0 {
+            i = V::moved(i, self.mid.le(x), V::plus(i, h));
+            while h > 1 {
+                h /= 2;
+                let next = V::plus(i, h);
+                i = V::moved(i, xs[0].pick2(xs[1], next).le(x), next);
+            }
+        }
+        i
+    }
+}
+
 /// Why a list of points is not a curve.
 #[derive(Clone, Debug, PartialEq)]
 pub enum CurveError {
@@ -609,8 +817,46 @@ mod tests {
     /// are refused because it would not.
     #[test]
     fn wide_curves_evaluate_to_the_same_bits() {
-        // (points, whether they widen)
-        let curves: [(Vec<(f64, f64)>, bool); 18] = [
+        let curves = curves_to_widen();
+        let xs = probes(777, 500, curves.iter().map(|c| &c.0[..]));
+        let mut refused_differ = 0;
+        let mut widths = 0;
+        for (pts, widens) in &curves {
+            let c = Curve::new(pts).unwrap();
+            // (each curve as the `ExactCurve` of its size, evaluated wide and one at a time)
+            let (got, want): (Vec<Vec<u64>>, Vec<u64>) = match pts.len() {
+                0 => wide_bits(&ExactCurve::<0>::new(&c).unwrap(), &xs, *widens),
+                2 => wide_bits(&ExactCurve::<2>::new(&c).unwrap(), &xs, *widens),
+                3 => wide_bits(&ExactCurve::<3>::new(&c).unwrap(), &xs, *widens),
+                4 => wide_bits(&ExactCurve::<4>::new(&c).unwrap(), &xs, *widens),
+                5..=8 => wide_bits(&ExactCurve::<8>::fitted(&c).unwrap(), &xs, *widens),
+                _ => wide_bits(&ExactCurve::<16>::fitted(&c).unwrap(), &xs, *widens),
+            };
+            let scalar: Vec<u64> = xs.iter().map(|&x| c.eval(x).to_bits()).collect();
+            assert_eq!(want, scalar, "{pts:?}: ExactCurve::eval");
+            widths = got.len();
+            for got in got {
+                if *widens {
+                    for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+                        assert_eq!(g, w, "{pts:?} at {}", xs[i]);
+                    }
+                } else if got != want {
+                    refused_differ += 1;
+                }
+            }
+        }
+        // (each refused curve would give other bits somewhere, in every width: `+0.0` for a
+        // `-0.0` first value, the value after a jump at the first point, `0 * inf`, a NaN, before
+        // an infinite slope)
+        assert_eq!(
+            refused_differ,
+            widths * curves.iter().filter(|c| !c.1).count()
+        );
+    }
+
+    /// Curves of 0 to 16 points, and whether they widen ([`ExactCurve::widens`]).
+    fn curves_to_widen() -> Vec<(Vec<(f64, f64)>, bool)> {
+        vec![
             (vec![], true),
             (vec![(-1.0, 0.5), (2.0, 1.0)], true),
             (vec![(-1.0, -0.1), (0.0, 0.0), (1.0, 0.1)], true),
@@ -681,41 +927,104 @@ mod tests {
                     .collect(),
                 false,
             ),
-        ];
-        let xs = probes(777, 500, curves.iter().map(|c| &c.0[..]));
+        ]
+    }
+
+    /// A curve of more than 16 points ([`LongCurve`]) gives [`Curve::eval`]'s bits wide, in
+    /// each width the CPU has, wherever it widens ([`LongCurve::widens`], the rule of
+    /// `ExactCurve::widens`): curves of 17 to 100 points with jumps inside and at the end and
+    /// `-0.0` values, and the curves of 0 to 16 points of the wide test; a curve refused gives
+    /// other bits somewhere in each width.
+    #[test]
+    fn long_curves_evaluate_to_the_same_bits() {
+        let mut curves = curves_to_widen();
+        let wavy = |n: usize, i: usize| (i as f64 * 4.0 / n as f64 - 2.0, (i as f64 * 0.7).sin());
+        curves.push(((0..17).map(|i| wavy(17, i)).collect(), true));
+        curves.push(((0..33).map(|i| wavy(33, i)).collect(), true));
+        curves.push(((0..64).map(|i| wavy(64, i)).collect(), true));
+        // (jumps inside and at the end, `-0.0` values, a flat stretch)
+        let jumpy: Vec<(f64, f64)> = (0..40)
+            .map(|i| {
+                let x = ((i + 2) / 3) as f64 * 0.25 - 1.5;
+                let y = [0.5, -0.0, 1.0, 1.0, -2.0][i % 5] + (i / 5) as f64;
+                (x, y)
+            })
+            .collect();
+        curves.push((jumpy.clone(), true));
+        curves.push(((0..100).map(|i| wavy(100, i)).collect(), true));
+        // (refused: a jump at the first point; a `-0.0` first value)
+        let mut first_jump = jumpy.clone();
+        first_jump[1].0 = first_jump[0].0;
+        curves.push((first_jump, false));
+        let mut minus_zero = (0..20).map(|i| wavy(20, i)).collect::<Vec<_>>();
+        minus_zero[0].1 = -0.0;
+        curves.push((minus_zero, false));
+        let xs = probes(779, 500, curves.iter().map(|c| &c.0[..]));
         let mut refused_differ = 0;
         let mut widths = 0;
         for (pts, widens) in &curves {
             let c = Curve::new(pts).unwrap();
-            // (each curve as the `ExactCurve` of its size, evaluated wide and one at a time)
-            let (got, want): (Vec<Vec<u64>>, Vec<u64>) = match pts.len() {
-                0 => wide_bits(&ExactCurve::<0>::new(&c).unwrap(), &xs, *widens),
-                2 => wide_bits(&ExactCurve::<2>::new(&c).unwrap(), &xs, *widens),
-                3 => wide_bits(&ExactCurve::<3>::new(&c).unwrap(), &xs, *widens),
-                4 => wide_bits(&ExactCurve::<4>::new(&c).unwrap(), &xs, *widens),
-                5..=8 => wide_bits(&ExactCurve::<8>::fitted(&c).unwrap(), &xs, *widens),
-                _ => wide_bits(&ExactCurve::<16>::fitted(&c).unwrap(), &xs, *widens),
-            };
-            let scalar: Vec<u64> = xs.iter().map(|&x| c.eval(x).to_bits()).collect();
-            assert_eq!(want, scalar, "{pts:?}: ExactCurve::eval");
+            let long = LongCurve::new(&c);
+            assert_eq!(long.widens(), *widens, "{pts:?}");
+            let want: Vec<u64> = xs.iter().map(|&x| c.eval(x).to_bits()).collect();
+            let got = long_bits(&long, &xs);
             widths = got.len();
             for got in got {
                 if *widens {
                     for (i, (g, w)) in got.iter().zip(&want).enumerate() {
-                        assert_eq!(g, w, "{pts:?} at {}", xs[i]);
+                        assert_eq!(g, w, "{} points at {}", pts.len(), xs[i]);
                     }
                 } else if got != want {
                     refused_differ += 1;
                 }
             }
         }
-        // (each refused curve would give other bits somewhere, in every width: `+0.0` for a
-        // `-0.0` first value, the value after a jump at the first point, `0 * inf`, a NaN, before
-        // an infinite slope)
         assert_eq!(
             refused_differ,
             widths * curves.iter().filter(|c| !c.1).count()
         );
+        #[cfg(target_arch = "x86_64")]
+        assert!(widths > 0 || !std::is_x86_feature_detected!("avx2"));
+    }
+
+    /// `WideLong::eval` of `c` at `xs` in each width the CPU has (AVX-512, AVX2; none
+    /// elsewhere).
+    fn long_bits(c: &LongCurve, xs: &[f64]) -> Vec<Vec<u64>> {
+        #[allow(unused_mut)]
+        let mut got = Vec::new();
+        #[cfg(target_arch = "x86_64")]
+        {
+            use crate::wide::{V4, V8};
+            /// `WideLong::eval` of `c` at `xs`, `V::N` at a time (the last lanes `0.0`).
+            #[inline(always)]
+            unsafe fn eval_as<V: Vector>(c: &LongCurve, xs: &[f64]) -> Vec<u64> {
+                let w = c.wide::<V>();
+                let mut got = Vec::new();
+                for chunk in xs.chunks(V::N) {
+                    let mut lanes = [0.0; 8];
+                    w.eval(V::load_part(chunk)).store(lanes.as_mut_ptr());
+                    got.extend(lanes[..chunk.len()].iter().map(|v| v.to_bits()));
+                }
+                got
+            }
+            #[target_feature(enable = "avx512f")]
+            unsafe fn eval8(c: &LongCurve, xs: &[f64]) -> Vec<u64> {
+                eval_as::<V8>(c, xs)
+            }
+            #[target_feature(enable = "avx2")]
+            unsafe fn eval4(c: &LongCurve, xs: &[f64]) -> Vec<u64> {
+                eval_as::<V4>(c, xs)
+            }
+            if std::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU has AVX-512F.
+                got.push(unsafe { eval8(c, xs) });
+            }
+            if std::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has AVX2.
+                got.push(unsafe { eval4(c, xs) });
+            }
+        }
+        got
     }
 
     /// A curve padded to more points ([`ExactCurve::padded`]) gives the bits of the curve, one

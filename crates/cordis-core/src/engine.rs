@@ -45,7 +45,7 @@ use std::cell::Cell;
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use crate::curve::ExactCurve;
+use crate::curve::{ExactCurve, LongCurve};
 use crate::lanes::{Avx512, LANES};
 use crate::lines::Lines;
 use crate::parallel::{Poisoned, Pool, SharedBuf, SpinBarrier, Task};
@@ -217,8 +217,47 @@ enum Lnl {
     /// springs, and curves drawn point by point), each evaluated without a branch in a loop the
     /// compiler vectorises
     Exact(ExactPair),
-    /// a curve of more points: [`Curve::eval`], one link at a time
-    Any(Box<(Curve, Curve)>),
+    /// a curve of more points: [`Curve::eval`] one link at a time, and [`LongCurve`]s in the
+    /// vector paths
+    Any(Box<AnyPair>),
+}
+
+/// An LNL law of a curve of more than 16 points: the curves, and the same as [`LongCurve`]s.
+#[derive(Clone, Debug)]
+struct AnyPair {
+    k: Curve,
+    z: Curve,
+    long: (LongCurve, LongCurve),
+}
+
+impl AnyPair {
+    fn new(k: &Curve, z: &Curve) -> AnyPair {
+        AnyPair {
+            k: k.clone(),
+            z: z.clone(),
+            long: (LongCurve::new(k), LongCurve::new(z)),
+        }
+    }
+
+    #[inline(always)]
+    fn force(&self, d: f64, v: f64) -> f64 {
+        self.k.eval(d) + self.z.eval(v)
+    }
+
+    /// Whether both curves evaluate several at a time ([`LongCurve::widens`]).
+    fn widens(&self) -> bool {
+        self.long.0.widens() && self.long.1.widens()
+    }
+
+    /// Whether the force is never `-0.0`, as [`ExactPair::never_minus_zero`].
+    fn never_minus_zero(&self) -> bool {
+        self.long.0.never_minus_zero() || self.long.1.never_minus_zero()
+    }
+
+    /// Whether `other` has the same curves, bit for bit.
+    fn same_bits(&self, other: &AnyPair) -> bool {
+        self.long.0.same_bits(&other.long.0) && self.long.1.same_bits(&other.long.1)
+    }
 }
 
 /// A function of an [`ExactPair`]'s two curves, generic in their point counts (so that it is
@@ -405,7 +444,7 @@ impl Lnl {
         if let Some(pair) = ExactPair::new(k, z) {
             Lnl::Exact(pair)
         } else {
-            Lnl::Any(Box::new((k.clone(), z.clone())))
+            Lnl::Any(Box::new(AnyPair::new(k, z)))
         }
     }
 
@@ -413,7 +452,7 @@ impl Lnl {
     fn force(&self, d: f64, v: f64) -> f64 {
         match self {
             Lnl::Exact(pair) => pair.force(d, v),
-            Lnl::Any(c) => c.0.eval(d) + c.1.eval(v),
+            Lnl::Any(c) => c.force(d, v),
         }
     }
 }
@@ -5009,12 +5048,14 @@ mod tests {
             (32, 500, 11),
             (33, 123, 12),
             (34, 500, 12),
+            (35, 40, 13),
+            (36, 500, 13),
         ] {
             let net = match kind {
                 0 => springs(seed, n, None),
                 1 | 6 => but_springs(seed, n, kind == 1),
                 7 | 8 => but_lnl_springs(seed, n, kind == 8),
-                9..=12 => lnl_springs(seed, n, kind - 5),
+                9..=13 => lnl_springs(seed, n, kind - 5),
                 _ => lnl_springs(seed, n, kind - 2),
             };
             let but_links: Vec<LinkId> = (0..net.links.len() as u32)
@@ -5043,8 +5084,10 @@ mod tests {
                     let (one, several) = pull.rows_of_pairs();
                     assert!(one > 0 && (n < 500 || several > 0), "network {seed}");
                 }
+                // (a pair of curves of more points, evaluated as they are)
+                assert_eq!(pull.long_curves(), kind == 13, "network {seed}");
                 // (curves drawn point by point, padded to 8 or 16 points: one pair, or two)
-                if kind >= 9 {
+                if (9..=12).contains(&kind) {
                     let k = usize::from(kind - 9);
                     assert_eq!(pull.curve_pairs(), k % 2 + 1, "network {seed}");
                     let points = [(8, 4), (8, 8), (16, 2), (16, 16)][k];
@@ -5124,6 +5167,7 @@ mod tests {
         match mix {
             4 | 5 => [lnl, others[0]] = [first, second],
             6 | 7 => [lnl, others[0]] = [fine, second],
+            8 => lnl = sampled_pair(),
             _ => {}
         }
         let count = net.links.len();
@@ -5380,6 +5424,22 @@ mod tests {
                 &[(-0.003, -1e-6), (0.003, 1e-6)],
             ),
         ]
+    }
+
+    /// A pair of LNL curves of more points than an [`ExactPair`] holds: a spring sampled from a
+    /// formula (40 points, a jump among them) and a viscous curve of 3 points.
+    fn sampled_pair() -> Interaction {
+        let mut k: Vec<(f64, f64)> = (0..40)
+            .map(|i| {
+                let x = -0.024 + f64::from(i) * 0.048 / 39.0;
+                (x, 0.05 * x + 30.0 * x * x * x)
+            })
+            .collect();
+        k[25].0 = k[24].0;
+        Interaction::Lnl {
+            lk: Curve::new(&k).unwrap(),
+            lz: Curve::new(&[(-0.002, -3e-6), (0.0, 1e-7), (0.003, 4e-6)]).unwrap(),
+        }
     }
 
     /// Three pairs of LNL curves drawn point by point, as a user draws a hardening spring: 7 and
@@ -6354,6 +6414,19 @@ mod tests {
         let mut free = bank(1, 900, lnl(drawn, fine));
         free_both(&mut free);
         nets.push(("900 LNL 7 13, free ends".into(), free));
+        // sampled from a formula, of more than 16 points (evaluated as they are: `LongCurve`), 40
+        // and 3, and 17 and 20 (free ends)
+        let sampled: &[(f64, f64)] = (0..40)
+            .map(|i| {
+                let x = -0.012 + f64::from(i) * 0.024 / 39.0;
+                (x, 0.08 * x + 50.0 * x * x * x)
+            })
+            .collect::<Vec<_>>()
+            .leak();
+        nets.push(("700 LNL 40 3".into(), bank(1, 700, lnl(sampled, damper))));
+        let mut free = bank(1, 500, lnl(&sampled[10..27], &sampled[..20]));
+        free_both(&mut free);
+        nets.push(("500 LNL 17 20, free ends".into(), free));
         let mut cut = bank(1, 200, lnl(spring, damper));
         let hammer = cut.add_material(Material::Mas {
             m: 2.0,
@@ -6447,8 +6520,8 @@ mod tests {
         assert_eq!(sheets(&one(100, &air)), 0);
         assert_eq!(sheets(&one(15, &nothing)), 0);
         // a BUT link to a ground with the MAS at the other end than a neighbour's (its force is
-        // not odd in its ends); the same for LNL, and LNL curves the grid step does not take (of
-        // 17 points, or not `ExactCurve::widens`: a first value of `-0.0`), or two of them
+        // not odd in its ends); the same for LNL, and LNL curves the grid step does not take (not
+        // `ExactCurve::widens` or `LongCurve::widens`: a first value of `-0.0`), or two of them
         let but = |_| Interaction::But {
             k: 0.1,
             z: 1e-4,
@@ -6481,7 +6554,10 @@ mod tests {
             (3.5, 5.359375),
             (4.0, 8.0),
         ];
-        assert_eq!(sheets(&bank(1, 100, lnl(seventeen, damper))), 0);
+        assert_eq!(sheets(&bank(1, 100, lnl(seventeen, damper))), 1);
+        let seventeen_minus_zero = seventeen.to_vec().leak();
+        seventeen_minus_zero[0].1 = -0.0;
+        assert_eq!(sheets(&bank(1, 100, lnl(seventeen_minus_zero, damper))), 0);
         assert_eq!(sheets(&bank(1, 100, lnl(&seventeen[1..], damper))), 1);
         assert_eq!(sheets(&bank(1, 100, lnl(&seventeen[4..13], damper))), 1);
         let minus_zero: &[(f64, f64)] = &[(-1.0, -0.0), (1.0, 1.0)];

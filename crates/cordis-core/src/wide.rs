@@ -67,7 +67,7 @@ pub(crate) trait Vector: Copy {
     unsafe fn prev1(self, b: Self) -> Self;
     /// Index 0 in every lane.
     unsafe fn first() -> Self::Index;
-    /// `i + h` in every lane (`i + h` at most `2 N`).
+    /// `i + h` in every lane (`i + h` below `2^31`).
     unsafe fn plus(i: Self::Index, h: usize) -> Self::Index;
     /// `to` in the lanes `m`, `i` in the others.
     unsafe fn moved(i: Self::Index, m: Self::Mask, to: Self::Index) -> Self::Index;
@@ -76,6 +76,10 @@ pub(crate) trait Vector: Copy {
     /// `t[i[j]]` in each lane `j`, where `t` is the `2 N` numbers of `self` then `hi` (each
     /// `i[j] < 2 N`).
     unsafe fn pick2(self, hi: Self, i: Self::Index) -> Self;
+    /// `i << bits` in every lane (`i` times `2^bits`, below `2^31`).
+    unsafe fn times(i: Self::Index, bits: u32) -> Self::Index;
+    /// `*p.add(i[j])` in each lane `j` (a gather; each `p.add(i[j])` valid for reads).
+    unsafe fn gather(p: *const f64, i: Self::Index) -> Self;
 }
 
 /// Eight lanes: AVX-512F.
@@ -194,6 +198,15 @@ impl Vector for V8 {
     #[inline(always)]
     unsafe fn pick2(self, hi: Self, i: __m512i) -> Self {
         V8(_mm512_permutex2var_pd(self.0, i, hi.0))
+    }
+    #[inline(always)]
+    unsafe fn times(i: __m512i, bits: u32) -> __m512i {
+        _mm512_sll_epi64(i, _mm_cvtsi32_si128(bits as i32))
+    }
+    /// One `vgatherqpd`.
+    #[inline(always)]
+    unsafe fn gather(p: *const f64, i: __m512i) -> Self {
+        V8(_mm512_i64gather_pd::<8>(i, p))
     }
 }
 
@@ -325,6 +338,15 @@ impl Vector for V4 {
     unsafe fn pick2(self, hi: Self, i: __m256i) -> Self {
         let high = _mm256_castsi256_pd(_mm256_cmpgt_epi64(i, _mm256_set1_epi64x(3)));
         V4(_mm256_blendv_pd(self.pick(i).0, hi.pick(i).0, high))
+    }
+    #[inline(always)]
+    unsafe fn times(i: __m256i, bits: u32) -> __m256i {
+        _mm256_sll_epi64(i, _mm_cvtsi32_si128(bits as i32))
+    }
+    /// One `vgatherqpd`.
+    #[inline(always)]
+    unsafe fn gather(p: *const f64, i: __m256i) -> Self {
+        V4(_mm256_i64gather_pd::<8>(p, i))
     }
 }
 

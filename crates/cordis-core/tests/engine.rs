@@ -403,8 +403,12 @@ fn spring_networks_equal_the_reference() {
         let moved = equals_reference_in_blocks(&net, 1500, &what);
         assert!(moved > net.outputs.len() / 2, "{what}");
     }
-    // with LNL links of curves drawn point by point (5 to 12 points), of one pair or several
+    // with LNL links of curves drawn point by point (5 to 12 points) or sampled (40), of one pair
+    // or several
     for (seed, n, inertia, pairs) in [
+        (46, 100, 1, &[3][..]),
+        (47, 700, 2, &[3]),
+        (48, 333, 3, &[3, 0]),
         (40, 100, 0, &[0][..]),
         (41, 333, 1, &[0, 1]),
         (42, 700, 3, &[1, 0]),

@@ -88,15 +88,16 @@ use std::ops::Range;
 
 use crate::curve::ExactCurve;
 #[cfg(target_arch = "x86_64")]
-use crate::curve::WideCurve;
+use crate::curve::{WideCurve, WideLong};
 use crate::lanes::LANES;
 use crate::lines::LINE;
 use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
 #[cfg(target_arch = "x86_64")]
 use crate::wide::{Vector, V4, V8};
 
-use super::{by_div, by_inv, ButLaw, ExactPair, Forces, Kernel, Law, LinkLaw, Lnl, MasLaw, PairFn};
+use super::{by_div, by_inv, AnyPair, ButLaw, ExactPair, Forces, Kernel, Law, LinkLaw, Lnl};
 use super::{Claim, Simd, State, NEG};
+use super::{MasLaw, PairFn};
 use super::{Positions, RefLaw, Roles, Run};
 use crate::{Interaction, Material, Network};
 
@@ -122,12 +123,16 @@ const FREE: u32 = u32::MAX;
 
 /// The law of a sheet's links, with its `K` and `Z` (`Sheet::k`, `Sheet::z`): a membrane's are
 /// REF; a string's REF, BUT (threshold `s`) or LNL (curves of at most 16 points, boxed: a pair
-/// of 16 and 16 points is 776 bytes).
+/// of 16 and 16 points is 776 bytes; or of more points).
 #[derive(Clone, Debug)]
 enum Strand {
     Ref,
-    But { s: f64 },
+    But {
+        s: f64,
+    },
     Lnl(Box<ExactPair>),
+    /// LNL links of curves of more than 16 points ([`LongLinks`])
+    Long(Box<AnyPair>),
 }
 
 /// A string's link law, as [`Sheet::piece`] computes it: one link at a time (the piece's ends)
@@ -248,6 +253,36 @@ impl<const A: usize, const B: usize> StringLaw for LnlLinks<A, B> {
     #[inline(always)]
     unsafe fn wide<V: Vector>(&self) -> Self::Wide<V> {
         (self.0.wide(), self.1.wide())
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn force_n<V: Vector>((ck, cz): &Self::Wide<V>, xa: V, va: V, xb: V, vb: V) -> V {
+        ck.eval(xa.sub(xb)).add(cz.eval(va.sub(vb)))
+    }
+}
+
+/// LNL links of curves of any number of points ([`LongCurve`], evaluated with gathers).
+#[derive(Clone, Copy)]
+struct LongLinks<'a>(&'a AnyPair);
+
+impl<'a> StringLaw for LongLinks<'a> {
+    const LOADS: bool = true;
+    const NEVER_MINUS_ZERO: bool = true;
+
+    #[cfg(target_arch = "x86_64")]
+    type Wide<V: Vector> = (WideLong<'a, V>, WideLong<'a, V>);
+
+    /// `elastic(x1 - x2) + viscous(v1 - v2)`, as the gather step.
+    #[inline(always)]
+    fn force(&self, xa: f64, va: f64, xb: f64, vb: f64) -> f64 {
+        self.0.force(xa - xb, va - vb)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn wide<V: Vector>(&self) -> Self::Wide<V> {
+        (self.0.long.0.wide(), self.0.long.1.wide())
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -1005,6 +1040,9 @@ impl Sheet {
                 Lnl::Exact(pair) if pair.widens() && pair.never_minus_zero() => {
                     Strand::Lnl(Box::new(*pair))
                 }
+                Lnl::Any(pair) if pair.widens() && pair.never_minus_zero() => {
+                    Strand::Long(pair.clone())
+                }
                 _ => return None,
             },
             _ => return None,
@@ -1020,6 +1058,10 @@ impl Sheet {
                     Strand::But { s } => k.ls[l].to_bits() == s.to_bits(),
                     Strand::Lnl(pair) => match &k.lnl[k.lnl_of[l] as usize] {
                         Lnl::Exact(other) => other.same_bits(pair),
+                        _ => false,
+                    },
+                    Strand::Long(pair) => match &k.lnl[k.lnl_of[l] as usize] {
+                        Lnl::Any(other) => other.same_bits(pair),
                         _ => false,
                     },
                 }
@@ -1459,6 +1501,14 @@ impl Sheet {
                     ms,
                     next,
                 })
+            }
+            Strand::Long(pair) => {
+                assert!(
+                    bank.len() == 1,
+                    "an LNL string is stepped alone (`banks_with`)"
+                );
+                let law = |_: &Sheet| LongLinks(pair);
+                Self::strings_as(bank, rows, law, x, xp, ms, next)
             }
         }
     }

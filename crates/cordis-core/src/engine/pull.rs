@@ -64,9 +64,10 @@ use std::ops::Range;
 
 use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
 
-use super::{Claim, ExactPair, Kernel, Law, Lnl, MasLaw, PairFn, Roles, Run, Simd, State, NEG};
+use super::{AnyPair, Claim, ExactPair, Kernel, Law, Lnl, MasLaw, PairFn, Roles, Run, Simd};
+use super::{State, NEG};
 #[cfg(target_arch = "x86_64")]
-use crate::curve::{ExactCurve, WideCurve};
+use crate::curve::{ExactCurve, WideCurve, WideLong};
 use crate::lanes::Avx512;
 #[cfg(target_arch = "x86_64")]
 use crate::wide::V8;
@@ -166,6 +167,10 @@ pub(super) struct Pull {
     curves: Option<ExactPair>,
     /// The network's distinct pairs of LNL curves, as declared (the CEL's terms evaluate them).
     pairs: Vec<ExactPair>,
+    /// When the network's LNL links all have one pair of curves of more than 16 points (that
+    /// evaluate several at a time, [`AnyPair::widens`]): that pair, pair 0 (`pairs` and `curves`
+    /// are empty). A network of such a pair and others keeps the other steps.
+    long: Option<Box<AnyPair>>,
     /// With several pairs: each pair padded to the most points of any ([`ExactPair::write`]),
     /// one after another; else empty.
     table: Vec<f64>,
@@ -231,15 +236,26 @@ impl Pull {
         let mut pairs: Vec<ExactPair> = Vec::new();
         let mut pair_of = vec![u32::MAX; k.lnl.len()];
         let mut seen: HashMap<Vec<u64>, u32> = HashMap::new();
+        let mut long: Option<Box<AnyPair>> = None;
         for l in (0..k.nl).filter(|&l| law[l] == Law::Lnl) {
             let i = k.lnl_of[l] as usize;
             if pair_of[i] != u32::MAX {
                 continue;
             }
-            let Lnl::Exact(pair) = &k.lnl[i] else {
-                return None;
+            let pair = match &k.lnl[i] {
+                Lnl::Exact(pair) => pair,
+                Lnl::Any(any) => {
+                    match &long {
+                        _ if !any.widens() => return None,
+                        None => long = Some(any.clone()),
+                        Some(one) if one.same_bits(any) => {}
+                        Some(_) => return None,
+                    }
+                    pair_of[i] = 0;
+                    continue;
+                }
             };
-            if !pair.widens() {
+            if !pair.widens() || long.is_some() {
                 return None;
             }
             // (the point counts, then the numbers' bits: the same key for the same curves)
@@ -254,6 +270,9 @@ impl Pull {
                 pairs.push(*pair);
                 (pairs.len() - 1) as u32
             });
+        }
+        if long.is_some() && !pairs.is_empty() {
+            return None;
         }
         // Several pairs evaluate as one shape: the smallest that has the most points of any,
         // each padded to it.
@@ -309,6 +328,7 @@ impl Pull {
             thresholds: Vec::new(),
             curves,
             pairs,
+            long,
             table,
             row_curves: Vec::new(),
             parts: Vec::new(),
@@ -420,7 +440,7 @@ impl Pull {
         }
         // (with LNL links, whether the rows compute their springs and dampers, and BUTs, which
         // have a spring; else whether they compute their BUTs)
-        p.full_rows = if p.curves.is_some() {
+        p.full_rows = if p.curves.is_some() || p.long.is_some() {
             Pull::computes_full_rows(&p.rows, |r| (r.k | r.z) != 0)
         } else {
             but && Pull::computes_full_rows(&p.rows, |r| r.b != 0)
@@ -431,7 +451,10 @@ impl Pull {
         p.recorded = k.recorded_links()?;
         assert!(p.cel_terms.iter().all(|t| match *t {
             CelTerm::Link(j, ..) | CelTerm::But(j, ..) => (j as usize) < k.nm,
-            CelTerm::Lnl(j, _, pair) => (j as usize) < k.nm && (pair as usize) < p.pairs.len(),
+            CelTerm::Lnl(j, _, pair) => {
+                let pairs = if p.long.is_some() { 1 } else { p.pairs.len() };
+                (j as usize) < k.nm && (pair as usize) < pairs
+            }
             CelTerm::Input(i) => (i as usize) < k.enf.len(),
         }));
         assert!(p.enf.iter().all(|&(_, i)| (i as usize) < k.enf.len()));
@@ -487,6 +510,12 @@ impl Pull {
     #[cfg(test)]
     pub(super) fn curve_points(&self) -> Option<(usize, usize)> {
         self.curves.map(|c| c.counts())
+    }
+
+    /// Whether the LNL terms are of one pair of curves of more than 16 points ([`Pull::long`]).
+    #[cfg(test)]
+    pub(super) fn long_curves(&self) -> bool {
+        self.long.is_some()
     }
 
     /// How many rows have LNL lanes of one pair, of several (with several pairs).
@@ -740,15 +769,14 @@ impl Pull {
                     }
                     CelTerm::Lnl(j, end2, pair) => {
                         let [xj, vj] = pc[j as usize];
-                        let curves = &self.pairs[pair as usize];
+                        let force = |d: f64, dv: f64| match &self.long {
+                            Some(long) => long.force(d, dv),
+                            None => self.pairs[pair as usize].force(d, dv),
+                        };
                         // (the reference's `d` and `v` and force, negated from end 2: see
                         // `sum_lnl`)
                         let (d, dv) = (x - xj, v - vj);
-                        f -= if end2 {
-                            -curves.force(-d, -dv)
-                        } else {
-                            curves.force(d, dv)
-                        };
+                        f -= if end2 { -force(-d, -dv) } else { force(d, dv) };
                     }
                     CelTerm::Input(i) => f += k.enf[i as usize].at(n),
                 }
@@ -784,6 +812,14 @@ impl Pull {
         pn: &mut [[f64; 2]],
     ) {
         match &self.curves {
+            None if self.long.is_some() => {
+                let long = self.long.as_deref().expect("a pair (just tested)");
+                // SAFETY: this function is compiled with AVX-512F, and a pull step has
+                // `Isa::Avx512` (asserted) only with the token, the CPU's proof of it.
+                assert!(matches!(self.isa, Isa::Avx512(_)));
+                let curves = unsafe { LongCurves::new(long, self.full_rows) };
+                self.groups_with(curves, k, n, gr, prev, pc, &params, next, pn)
+            }
             Some(pair) => pair.visit(WithCurves {
                 pull: self,
                 k,
@@ -1071,6 +1107,60 @@ impl<const A: usize, const B: usize> LnlForces for Curves<A, B> {
     }
 }
 
+/// LNL terms of one pair of curves of any number of points ([`Pull::long`], evaluated with
+/// gathers: [`WideLong`]), and RES, FRO, REF and BUT terms (as [`Curves`]).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+struct LongCurves<'a> {
+    k: WideLong<'a, V8>,
+    z: WideLong<'a, V8>,
+    full_rows: bool,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl<'a> LongCurves<'a> {
+    /// # Safety
+    /// The CPU has AVX-512F (see [`V8`]).
+    #[inline(always)]
+    unsafe fn new(pair: &'a AnyPair, full_rows: bool) -> Self {
+        // SAFETY: the caller's promise.
+        unsafe {
+            LongCurves {
+                k: pair.long.0.wide::<V8>(),
+                z: pair.long.1.wide::<V8>(),
+                full_rows,
+            }
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl LnlForces for LongCurves<'_> {
+    #[inline(always)]
+    unsafe fn forces(&self, _: usize, d: __m512d, dv: __m512d) -> __m512d {
+        // SAFETY: the caller's promise (`V8`).
+        unsafe { _mm512_add_pd(self.k.eval(V8(d)).0, self.z.eval(V8(dv)).0) }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Terms for LongCurves<'_> {
+    #[inline(always)]
+    unsafe fn sum<'p>(
+        self,
+        pull: &Pull,
+        rows: Range<usize>,
+        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+        base: *const u8,
+        x: __m512d,
+        v: __m512d,
+        perm: (__m512i, __m512i),
+    ) -> __m512d {
+        // SAFETY: the caller's promise.
+        unsafe { sum_of_one(&self, self.full_rows, pull, rows, params, base, x, v, perm) }
+    }
+}
+
 /// [`CurveTable`] on the rows of one sum: [`Pull::row_curves`] from its first row, and the
 /// pull step's `table` and `parts`.
 #[cfg(target_arch = "x86_64")]
@@ -1175,21 +1265,8 @@ impl<const A: usize, const B: usize> Terms for Curves<A, B> {
         v: __m512d,
         perm: (__m512i, __m512i),
     ) -> __m512d {
-        let ts = pull.row_thresholds(rows.clone());
         // SAFETY: the caller's promise.
-        unsafe {
-            sum_lnl(
-                &pull.rows[rows],
-                params,
-                self.full_rows,
-                &self,
-                ts,
-                base,
-                x,
-                v,
-                perm,
-            )
-        }
+        unsafe { sum_of_one(&self, self.full_rows, pull, rows, params, base, x, v, perm) }
     }
 }
 
@@ -1336,6 +1413,30 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
             }
         }
     }
+}
+
+/// [`sum_lnl`] of the rows `rows` of `pull`, with the forces of one pair of curves `c` (a
+/// [`Terms::sum`]).
+///
+/// # Safety
+/// As [`Terms::sum`].
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+#[allow(clippy::too_many_arguments)] // (the operands of `sum`)
+unsafe fn sum_of_one<'p>(
+    c: &impl LnlForces,
+    full_rows: bool,
+    pull: &Pull,
+    rows: Range<usize>,
+    params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+    base: *const u8,
+    x: __m512d,
+    v: __m512d,
+    perm: (__m512i, __m512i),
+) -> __m512d {
+    let ts = pull.row_thresholds(rows.clone());
+    // SAFETY: the caller's promise.
+    unsafe { sum_lnl(&pull.rows[rows], params, full_rows, c, ts, base, x, v, perm) }
 }
 
 /// [`sum`] for rows whose lanes `row.b` have LNL terms, their forces from `c` (the network's one

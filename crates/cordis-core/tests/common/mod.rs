@@ -799,8 +799,10 @@ pub fn lnl_network(seed: u64, n: usize, inertia: u8, all: bool, uniform: bool) -
 /// [`spring_network`] with LNL links of curves drawn point by point, two links in three, of the
 /// pairs `pairs` (indexes, taken in turn): 0, a softening then hardening spring (8 points, and a
 /// viscous curve of 2); 1, a spring of 6 points, a jump among them, and a viscous curve of 5; 2,
-/// a finely drawn spring (12 points) and a viscous curve of 3. The engine pads several pairs to one
-/// shape: 0 and 1 to 8 and 8, 2 alone to 16 and 4, 2 with another to 16 and 16.
+/// a finely drawn spring (12 points) and a viscous curve of 3; 3, a spring sampled from a formula
+/// (40 points, more than the engine's fixed shapes hold) and a viscous curve of 3. The engine pads
+/// several pairs to one shape: 0 and 1 to 8 and 8, 2 alone to 16 and 4, 2 with another to 16 and
+/// 16; 3 alone it evaluates as it is.
 pub fn drawn_lnl_network(seed: u64, n: usize, inertia: u8, pairs: &[usize]) -> Network {
     let mut net = spring_network(seed, n, 4, inertia, false);
     let pair = |k: &[(f64, f64)], z: &[(f64, f64)]| Interaction::Lnl {
@@ -853,6 +855,15 @@ pub fn drawn_lnl_network(seed: u64, n: usize, inertia: u8, pairs: &[usize]) -> N
                 (0.018, 1.1e-3),
                 (0.026, 1.9e-3),
             ],
+            &[(-0.002, -3e-6), (0.0, 0.0), (0.003, 5e-6)],
+        ),
+        pair(
+            &(0..40)
+                .map(|i| {
+                    let x = -0.03 + f64::from(i) * 0.06 / 39.0;
+                    (x, 0.06 * x + 20.0 * x * x * x)
+                })
+                .collect::<Vec<_>>(),
             &[(-0.002, -3e-6), (0.0, 0.0), (0.003, 5e-6)],
         ),
     ];
