@@ -1336,7 +1336,8 @@ fn usage() -> ! {
          [random [N]] [random-but [N]] [random-lnl [N]] [random-struck [N]] \
          [random-lnl-mixed [N]] [random-lnl-halves [N]] [random-lnl-struck [N]] \
          [random-but-lnl [N]] [lnl-drawn [N]] [random-lnl-drawn [N]] [lnl-fine [N]] \
-         [random-lnl-fine [N]] [lnl-long [N]] [random-lnl-long [N]]...\n(no model: every default model)\n   \
+         [random-lnl-fine [N]] [lnl-long [N]] [random-lnl-long [N]]...\n(no model: every \
+         default model)\n   \
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
          threads, default N = 100000 masses, T = 2)\n   \
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \

@@ -427,7 +427,7 @@ impl<V: Vector> WideLong<'_, V> {
     /// 2 V::N` the others and the segment's numbers are looked up in two vectors
     /// ([`Vector::pick2`]); else the halvings down to `P / (2 V::N)` look the coarse abscissas
     /// up (`j` counts coarse abscissas, `i = j P / (2 V::N)`: the same comparisons), and the
-    /// rest and the segment's numbers are gathered from the table. Where
+    /// rest and the segment's numbers are fetched from the table ([`WideLong::fetch`]). Where
     /// `x < x[n-1]` (`within`) that is the segment [`Curve::eval`] takes, its last point `<= x`
     /// (the points from `n - 1` on, and any padding, `x[n-1]`, are not `<= x`); the value is
     /// then `y + (x - x[i]) slope`, and elsewhere `y[n-1]`, as `Curve::eval` at or past the last
@@ -442,8 +442,6 @@ impl<V: Vector> WideLong<'_, V> {
             return V::zero();
         }
         let s = self.segs;
-        let t = self.table.as_ptr();
-        assert!(self.table.len() == 3 * s);
         let x = x.max(self.x0);
         let c = 2 * V::N;
         let [_, ys, slopes] = self.lookup;
@@ -462,19 +460,54 @@ impl<V: Vector> WideLong<'_, V> {
             while h > 1 {
                 h /= 2;
                 let next = V::plus(i, h);
-                // SAFETY: each index is below `P` (above), and `t` has `3 P` numbers (asserted).
-                i = V::moved(i, V::gather(t, next).le(x), next);
+                i = V::moved(i, self.fetch(0, next).le(x), next);
             }
-            // SAFETY: as above, the indices below `P` of each third of the table.
-            (
-                V::gather(t, i),
-                V::gather(t.add(s), i),
-                V::gather(t.add(2 * s), i),
-            )
+            (self.fetch(0, i), self.fetch(1, i), self.fetch(2, i))
         };
         let along = y.add(x.sub(x0).mul(slope));
         let within = x.lt(self.x_last);
         self.y_last.select(within, along)
+    }
+
+    /// Item `i` (each lane's) of the table's third `k` (`0` the abscissas, `1` the values, `2`
+    /// the slopes), of `P > 2 V::N` numbers: looked up in its vectors ([`WideLong::look`]) up to
+    /// [`Vector::LOOK_MAX`] numbers, else gathered.
+    ///
+    /// # Safety
+    /// The CPU must have `V`'s instructions (see [`Vector`]); `k < 3`, each index below `P`.
+    #[inline(always)]
+    unsafe fn fetch(&self, k: usize, i: V::Index) -> V {
+        let s = self.segs;
+        assert!(k < 3 && self.table.len() == 3 * s && s.is_multiple_of(2 * V::N));
+        // SAFETY: `P` numbers from `k P` are within the table (asserted); the caller's promise
+        // for the indices.
+        let t = self.table.as_ptr().add(k * s);
+        if s <= V::LOOK_MAX {
+            Self::look(t, s, i)
+        } else {
+            V::gather(t, i)
+        }
+    }
+
+    /// `t[i]` in each lane, from the table of `len` numbers at `t` (a multiple of `2 V::N`): the
+    /// number at `i mod 2 V::N` of each `2 V::N` of them ([`Vector::pick2`]), that of the last
+    /// `2 V::N` that starts at or before `i` kept (a select each).
+    ///
+    /// # Safety
+    /// The CPU must have `V`'s instructions (see [`Vector`]); `t` is valid for `len` reads, and
+    /// each index below `len`.
+    #[inline(always)]
+    unsafe fn look(t: *const f64, len: usize, i: V::Index) -> V {
+        let n = V::N;
+        let low = V::low(i);
+        let mut r = V::load(t).pick2(V::load(t.add(n)), low);
+        let mut p = 2 * n;
+        while p < len {
+            let later = V::load(t.add(p)).pick2(V::load(t.add(p + n)), low);
+            r = r.select(V::at_least(i, p), later);
+            p += 2 * n;
+        }
+        r
     }
 
     /// The halvings of `eval` from `h` (`P / 2`, or `V::N`) down, over the first table of
@@ -942,10 +975,10 @@ mod tests {
         curves.push(((0..17).map(|i| wavy(17, i)).collect(), true));
         curves.push(((0..33).map(|i| wavy(33, i)).collect(), true));
         curves.push(((0..64).map(|i| wavy(64, i)).collect(), true));
-        // (jumps inside and at the end, `-0.0` values, a flat stretch)
-        let jumpy: Vec<(f64, f64)> = (0..40)
+        // (jumps inside and at the end, `-0.0` values)
+        let jumpy: Vec<(f64, f64)> = (0..40usize)
             .map(|i| {
-                let x = ((i + 2) / 3) as f64 * 0.25 - 1.5;
+                let x = i.div_ceil(3) as f64 * 0.25 - 1.5;
                 let y = [0.5, -0.0, 1.0, 1.0, -2.0][i % 5] + (i / 5) as f64;
                 (x, y)
             })

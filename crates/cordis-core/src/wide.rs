@@ -27,6 +27,9 @@ pub(crate) trait Vector: Copy {
     /// The most points of a curve whose segment `WideCurve::eval` looks up, in a table of two
     /// vectors at most ([`Vector::pick2`]); 0 where it selects segments whatever the curve.
     const LOOKUP: usize;
+    /// The most abscissas of a curve whose segment `WideLong::eval` looks up in vectors
+    /// ([`Vector::pick2`] of each two, and selects), rather than gathers.
+    const LOOK_MAX: usize;
     /// A set of lanes (the result of a compare).
     type Mask: Copy;
     /// An index into `N` numbers in each lane ([`Vector::pick`]).
@@ -76,6 +79,10 @@ pub(crate) trait Vector: Copy {
     /// `t[i[j]]` in each lane `j`, where `t` is the `2 N` numbers of `self` then `hi` (each
     /// `i[j] < 2 N`).
     unsafe fn pick2(self, hi: Self, i: Self::Index) -> Self;
+    /// `i mod 2 N` in every lane.
+    unsafe fn low(i: Self::Index) -> Self::Index;
+    /// The lanes where `i >= p`.
+    unsafe fn at_least(i: Self::Index, p: usize) -> Self::Mask;
     /// `i << bits` in every lane (`i` times `2^bits`, below `2^31`).
     unsafe fn times(i: Self::Index, bits: u32) -> Self::Index;
     /// `*p.add(i[j])` in each lane `j` (a gather; each `p.add(i[j])` valid for reads).
@@ -97,6 +104,7 @@ impl Vector for V8 {
     const N: usize = 8;
     const SHIFT_IS_ONE: bool = true;
     const LOOKUP: usize = 16;
+    const LOOK_MAX: usize = 64;
     type Mask = __mmask8;
     type Index = __m512i;
 
@@ -200,6 +208,14 @@ impl Vector for V8 {
         V8(_mm512_permutex2var_pd(self.0, i, hi.0))
     }
     #[inline(always)]
+    unsafe fn low(i: __m512i) -> __m512i {
+        _mm512_and_si512(i, _mm512_set1_epi64(15))
+    }
+    #[inline(always)]
+    unsafe fn at_least(i: __m512i, p: usize) -> __mmask8 {
+        _mm512_cmpge_epi64_mask(i, _mm512_set1_epi64(p as i64))
+    }
+    #[inline(always)]
     unsafe fn times(i: __m512i, bits: u32) -> __m512i {
         _mm512_sll_epi64(i, _mm_cvtsi32_si128(bits as i32))
     }
@@ -224,6 +240,7 @@ impl Vector for V4 {
     /// (an index costs four integer operations before each `vpermd`, two `vpermd` and a blend
     /// for two vectors: no fewer than the selects)
     const LOOKUP: usize = 0;
+    const LOOK_MAX: usize = 32;
     type Mask = __m256d;
     type Index = __m256i;
 
@@ -338,6 +355,16 @@ impl Vector for V4 {
     unsafe fn pick2(self, hi: Self, i: __m256i) -> Self {
         let high = _mm256_castsi256_pd(_mm256_cmpgt_epi64(i, _mm256_set1_epi64x(3)));
         V4(_mm256_blendv_pd(self.pick(i).0, hi.pick(i).0, high))
+    }
+    #[inline(always)]
+    unsafe fn low(i: __m256i) -> __m256i {
+        _mm256_and_si256(i, _mm256_set1_epi64x(7))
+    }
+    /// All ones where `i > p - 1` (`p >= 1` here).
+    #[inline(always)]
+    unsafe fn at_least(i: __m256i, p: usize) -> __m256d {
+        let m = _mm256_cmpgt_epi64(i, _mm256_set1_epi64x(p as i64 - 1));
+        _mm256_castsi256_pd(m)
     }
     #[inline(always)]
     unsafe fn times(i: __m256i, bits: u32) -> __m256i {
@@ -504,6 +531,24 @@ mod tests {
             assert_eq!(bits(&lanes(lo.pick2(hi, ks))), bits(&vec![t; n]), "{k}");
             if k < n {
                 assert_eq!(bits(&lanes(lo.pick(ks))), bits(&vec![t; n]), "{k}");
+            }
+        }
+        // the indexes above times a power of two: gathered from a longer table, their low bits
+        // picked from the table of two vectors, compared
+        let long: Vec<f64> = (0..64 * n).map(|k| odd[k % 8] * 0.5 + k as f64).collect();
+        for shift in 0..4 {
+            let scaled = V::times(i, shift);
+            let at: Vec<usize> = index.iter().map(|&c| c << shift).collect();
+            let want: Vec<f64> = at.iter().map(|&c| long[c]).collect();
+            let got = lanes(V::gather(long.as_ptr(), scaled));
+            assert_eq!(bits(&got), bits(&want), "{at:?}");
+            let want: Vec<f64> = at.iter().map(|&c| table[c % (2 * n)]).collect();
+            let got = lanes(lo.pick2(hi, V::low(scaled)));
+            assert_eq!(bits(&got), bits(&want), "{at:?}");
+            for p in [1, 3, 8, 16, 40] {
+                let got = lanes(V::zero().select(V::at_least(scaled, p), V::splat(1.0)));
+                let want: Vec<f64> = at.iter().map(|&c| f64::from(u8::from(c >= p))).collect();
+                assert_eq!(got, want, "{at:?} >= {p}");
             }
         }
     }

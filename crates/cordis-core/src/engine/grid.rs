@@ -79,10 +79,11 @@
 //! is a [`StringLaw`] computing eight links with the gather step's operands and operations; an
 //! LNL string's curves are evaluated eight at a time by `curve.rs`'s `WideCurve` (whose doc
 //! shows they give `ExactCurve::eval`'s bits), in a piece compiled for its pair of point counts
-//! ([`ExactPair::visit`]). Short strings one after the other in storage, of REF links all or BUT
-//! links all, step in banks ([`Grid::units`]): one call loops over their pieces, so that a
-//! string of 30 MAS costs its 30 MAS and not a call chain as well (docs/BENCHMARKS.md,
-//! twenty-second session).
+//! ([`ExactPair::visit`]), or, for curves of more than 16 points, by `WideLong` ([`LongLinks`],
+//! one piece for every point count, `Curve::eval`'s bits). Short strings one after the other in
+//! storage, of REF links all or BUT links all, step in banks ([`Grid::units`]): one call loops
+//! over their pieces, so that a string of 30 MAS costs its 30 MAS and not a call chain as well
+//! (docs/BENCHMARKS.md, twenty-second session).
 
 use std::ops::Range;
 
@@ -262,7 +263,8 @@ impl<const A: usize, const B: usize> StringLaw for LnlLinks<A, B> {
     }
 }
 
-/// LNL links of curves of any number of points ([`LongCurve`], evaluated with gathers).
+/// LNL links of curves of any number of points (`curve.rs`'s `LongCurve`, evaluated by
+/// `WideLong`).
 #[derive(Clone, Copy)]
 struct LongLinks<'a>(&'a AnyPair);
 

@@ -45,7 +45,9 @@
 //! network has ([`Terms`]: springs and dampers, with BUTs, or with LNLs, and BUTs if it has them,
 //! of one pair or of a table) chooses the sum once per step; a network with LNL curves that do not
 //! evaluate eight at a time or do not pad to one point count (a zero curve among curves that are
-//! not), or pairs of curves mixed in most rows, keeps the other steps. The loads and shuffles are
+//! not), or pairs of curves mixed in most rows, keeps the other steps. A pair of curves of more
+//! than 16 points ([`LongCurves`], `curve.rs`'s `WideLong`) is taken when it is the network's
+//! only pair. The loads and shuffles are
 //! AVX-512 (the CPU's proof is an [`Avx512`] token). A CPU with AVX2 but not AVX-512 takes the
 //! same rows four lanes at a time ([`avx2`]), on networks of REF links only; without either the
 //! network keeps the compact or gather step.
