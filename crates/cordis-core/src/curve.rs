@@ -306,6 +306,9 @@ pub(crate) struct LongCurve {
     table: Box<[f64]>,
     /// The last point, `(x[n-1], y[n-1])` (`P` may be `n - 1`, the table without it).
     last: (f64, f64),
+    /// [`LongCurve::widens`], decided from the curve's own points (a 2-point curve's table has
+    /// its first point alone).
+    widens: bool,
 }
 
 impl LongCurve {
@@ -323,11 +326,14 @@ impl LongCurve {
                 table[2 * segs + i] = if i + 1 < n { slopes[i] } else { 0.0 };
             }
         }
+        let widens = n < 2
+            || (xs[0] < xs[1] && slopes[0].is_finite() && ys[0].to_bits() != (-0.0f64).to_bits());
         LongCurve {
             n,
             segs,
             table: table.into(),
             last: n.checked_sub(1).map_or((0.0, 0.0), |l| (xs[l], ys[l])),
+            widens,
         }
     }
 
@@ -335,19 +341,17 @@ impl LongCurve {
     /// zero or one-point curve, or a first segment of a width, a finite slope, and a first value
     /// other than `-0.0`).
     pub(crate) fn widens(&self) -> bool {
-        let t = &self.table;
-        let s = self.segs;
-        self.n < 2 || (t[0] < t[1] && t[2 * s].is_finite() && t[s].to_bits() != (-0.0f64).to_bits())
+        self.widens
     }
 
     /// Whether [`Curve::eval`] (and [`WideLong::eval`]) never gives `-0.0`, as
-    /// [`ExactCurve::never_minus_zero`]: no value is `-0.0`.
+    /// [`ExactCurve::never_minus_zero`]: no value is `-0.0` (the table's, and the last point's,
+    /// which the table may not hold).
     pub(crate) fn never_minus_zero(&self) -> bool {
         let s = self.segs;
+        let not_minus_zero = |y: &f64| y.to_bits() != (-0.0f64).to_bits();
         self.n == 0
-            || self.table[s..2 * s]
-                .iter()
-                .all(|y| y.to_bits() != (-0.0f64).to_bits())
+            || (self.table[s..2 * s].iter().all(not_minus_zero) && not_minus_zero(&self.last.1))
     }
 
     /// Whether `other` has the same points, bit for bit.
@@ -905,6 +909,7 @@ mod tests {
             ),
             (vec![(-1.0, -0.0), (1.0, 1.0)], false),
             (vec![(0.0, -1.0), (0.0, 1.0)], false),
+            (vec![(0.0, 1.0), (0.0, 2.0)], false),
             (vec![(-2.0, -0.0), (-2.0, 3.0), (5.0, -1.0)], false),
             (vec![(-1e-300, -1e300), (1e-300, 1e300), (1.0, 0.0)], false),
             (
@@ -973,6 +978,10 @@ mod tests {
         let mut curves = curves_to_widen();
         let wavy = |n: usize, i: usize| (i as f64 * 4.0 / n as f64 - 2.0, (i as f64 * 0.7).sin());
         curves.push(((0..17).map(|i| wavy(17, i)).collect(), true));
+        // (a last value of `-0.0`, which the table of 16 segments does not hold)
+        let mut ends_minus_zero: Vec<(f64, f64)> = (0..17).map(|i| wavy(17, i)).collect();
+        ends_minus_zero[16].1 = -0.0;
+        curves.push((ends_minus_zero, true));
         curves.push(((0..33).map(|i| wavy(33, i)).collect(), true));
         curves.push(((0..64).map(|i| wavy(64, i)).collect(), true));
         // (jumps inside and at the end, `-0.0` values)
@@ -999,6 +1008,8 @@ mod tests {
             let c = Curve::new(pts).unwrap();
             let long = LongCurve::new(&c);
             assert_eq!(long.widens(), *widens, "{pts:?}");
+            let minus_zero = pts.iter().any(|p| p.1.to_bits() == (-0.0f64).to_bits());
+            assert_eq!(long.never_minus_zero(), !minus_zero, "{pts:?}");
             let want: Vec<u64> = xs.iter().map(|&x| c.eval(x).to_bits()).collect();
             let got = long_bits(&long, &xs);
             widths = got.len();

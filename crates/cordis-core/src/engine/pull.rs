@@ -47,10 +47,9 @@
 //! evaluate eight at a time or do not pad to one point count (a zero curve among curves that are
 //! not), or pairs of curves mixed in most rows, keeps the other steps. A pair of curves of more
 //! than 16 points ([`LongCurves`], `curve.rs`'s `WideLong`) is taken when it is the network's
-//! only pair. The loads and shuffles are
-//! AVX-512 (the CPU's proof is an [`Avx512`] token). A CPU with AVX2 but not AVX-512 takes the
-//! same rows four lanes at a time ([`avx2`]), on networks of REF links only; without either the
-//! network keeps the compact or gather step.
+//! only pair. The loads and shuffles are AVX-512 (the CPU's proof is an [`Avx512`] token). A
+//! CPU with AVX2 but not AVX-512 takes the same rows four lanes at a time ([`avx2`]), on networks
+//! of REF links only; without either the network keeps the compact or gather step.
 //!
 //! CEL (few in practice) pull their terms one at a time with the same expressions; ENX read
 //! their signal; SOL never change. The pair buffers are rebuilt from the positions at the start
@@ -1109,8 +1108,8 @@ impl<const A: usize, const B: usize> LnlForces for Curves<A, B> {
     }
 }
 
-/// LNL terms of one pair of curves of any number of points ([`Pull::long`], evaluated with
-/// gathers: [`WideLong`]), and RES, FRO, REF and BUT terms (as [`Curves`]).
+/// LNL terms of one pair of curves of any number of points ([`Pull::long`], evaluated by
+/// [`WideLong`]), and RES, FRO, REF and BUT terms (as [`Curves`]).
 #[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
 struct LongCurves<'a> {
