@@ -39,6 +39,11 @@
 //!   `random-lnl-struck N`: the LNL network and a hammer as `random-struck`'s;
 //!   `random-but-lnl N`: BUT links of threshold 0 and LNL links, a link's law chosen by its end
 //!   2, so mixed in nearly every group's rows.
+//! - `lnl-drawn N`, `lnl-fine N`, `lnl-long N` (default 1000), `random-lnl-drawn N`,
+//!   `random-lnl-fine N`, `random-lnl-long N`: the `lnl` string and the `random-lnl` network with
+//!   a stiffness curve of 7, 13 or 33 points (a hardening spring drawn point by point, drawn
+//!   finely, sampled from its formula); `random-lnl-long-halves N`: `random-lnl-halves` with the
+//!   first half's pair `random-lnl-long`'s (a pair of 33 points and one of 3, by region).
 //!
 //! `threads [N [T [KIND...]]]` times a string of N masses, a membrane of about N masses (316x316
 //! for 100,000), a `pair` of membranes of about N/2 masses each (224x224) and a random network of
@@ -95,6 +100,9 @@ enum Law {
     LnlFine,
     /// LNL links of curves sampled ([`sampled`]): 33 points, and `Lnl`'s viscous curve
     LnlLong,
+    /// `LnlHalves` with the first half's pair `LnlLong`'s (the random network only): a pair of
+    /// 33 points and one of 3, by region
+    LnlLongHalves,
 }
 
 impl Law {
@@ -110,7 +118,7 @@ impl Law {
             Law::Lnl => lnl(K),
             Law::LnlDrawn => drawn(K),
             Law::LnlFine => fine(K),
-            Law::LnlLong => sampled(K),
+            Law::LnlLong | Law::LnlLongHalves => sampled(K),
         }
     }
 }
@@ -476,7 +484,7 @@ fn random(n: usize, law: Law) -> Model {
         Law::But => contact(),
         law => law.interaction(),
     };
-    let halves = law == Law::LnlHalves;
+    let halves = matches!(law, Law::LnlHalves | Law::LnlLongHalves);
     let mut net = Network::new();
     let struck = |i: usize| i == n / 4 || (halves && i == n / 2 + n / 4);
     let masses: Vec<MatId> = (0..n)
@@ -529,6 +537,7 @@ fn random(n: usize, law: Law) -> Model {
             Law::LnlDrawn => format!("random_lnl_drawn_N{n}"),
             Law::LnlFine => format!("random_lnl_fine_N{n}"),
             Law::LnlLong => format!("random_lnl_long_N{n}"),
+            Law::LnlLongHalves => format!("random_lnl_long_halves_N{n}"),
         },
         net,
         masses: n + usize::from(matches!(law, Law::Struck | Law::LnlStruck)),
@@ -1336,7 +1345,8 @@ fn usage() -> ! {
          [random [N]] [random-but [N]] [random-lnl [N]] [random-struck [N]] \
          [random-lnl-mixed [N]] [random-lnl-halves [N]] [random-lnl-struck [N]] \
          [random-but-lnl [N]] [lnl-drawn [N]] [random-lnl-drawn [N]] [lnl-fine [N]] \
-         [random-lnl-fine [N]] [lnl-long [N]] [random-lnl-long [N]]...\n(no model: every \
+         [random-lnl-fine [N]] [lnl-long [N]] [random-lnl-long [N]] \
+         [random-lnl-long-halves [N]]...\n(no model: every \
          default model)\n   \
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
          threads, default N = 100000 masses, T = 2)\n   \
@@ -1361,10 +1371,25 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "lnl-drawn" => Some(Law::LnlDrawn),
             "lnl-fine" => Some(Law::LnlFine),
             "lnl-long" => Some(Law::LnlLong),
-            "membrane" | "rimmed" | "free" | "struck" | "pair" | "graded" | "random"
-            | "random-but" | "random-lnl" | "random-struck" | "random-lnl-mixed"
-            | "random-lnl-halves" | "random-lnl-struck" | "random-but-lnl" | "random-lnl-drawn"
-            | "random-lnl-fine" | "random-lnl-long" | "strings" => None,
+            "membrane"
+            | "rimmed"
+            | "free"
+            | "struck"
+            | "pair"
+            | "graded"
+            | "random"
+            | "random-but"
+            | "random-lnl"
+            | "random-struck"
+            | "random-lnl-mixed"
+            | "random-lnl-halves"
+            | "random-lnl-struck"
+            | "random-but-lnl"
+            | "random-lnl-drawn"
+            | "random-lnl-fine"
+            | "random-lnl-long"
+            | "random-lnl-long-halves"
+            | "strings" => None,
             _ => usage(),
         };
         let random_law = match kind {
@@ -1378,6 +1403,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "random-lnl-drawn" => Law::LnlDrawn,
             "random-lnl-fine" => Law::LnlFine,
             "random-lnl-long" => Law::LnlLong,
+            "random-lnl-long-halves" => Law::LnlLongHalves,
             _ => Law::Ref,
         };
         let first = args.get(i).map(String::as_str);

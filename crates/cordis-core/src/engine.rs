@@ -5012,7 +5012,7 @@ mod tests {
         // (kinds: 0 springs and dampers, 1 BUTs among them, 2 to 5 LNL networks of `mix` 0 to 3,
         // 6 one BUT among springs and dampers, 7 BUTs and LNLs among them, 8 an LNL network of
         // four pairs of curves and one BUT, 9 to 12 LNL networks of `mix` 4 to 7: curves
-        // drawn point by point)
+        // drawn point by point, 13 to 15 of `mix` 8 to 10: a pair of 40 points, with others)
         for (seed, n, kind) in [
             (1, 16, 0),
             (2, 40, 0),
@@ -5050,12 +5050,16 @@ mod tests {
             (34, 500, 12),
             (35, 40, 13),
             (36, 500, 13),
+            (37, 40, 14),
+            (38, 500, 14),
+            (39, 123, 15),
+            (40, 500, 15),
         ] {
             let net = match kind {
                 0 => springs(seed, n, None),
                 1 | 6 => but_springs(seed, n, kind == 1),
                 7 | 8 => but_lnl_springs(seed, n, kind == 8),
-                9..=13 => lnl_springs(seed, n, kind - 5),
+                9..=15 => lnl_springs(seed, n, kind - 5),
                 _ => lnl_springs(seed, n, kind - 2),
             };
             let but_links: Vec<LinkId> = (0..net.links.len() as u32)
@@ -5084,8 +5088,17 @@ mod tests {
                     let (one, several) = pull.rows_of_pairs();
                     assert!(one > 0 && (n < 500 || several > 0), "network {seed}");
                 }
-                // (a pair of curves of more points, evaluated as they are)
-                assert_eq!(pull.long_curves(), kind == 13, "network {seed}");
+                // (a pair of curves of more points, evaluated as they are: alone, with one other
+                // pair by region, with three in rows of one pair and rows of several)
+                assert_eq!(pull.long_curves(), kind >= 13, "network {seed}");
+                if kind >= 13 {
+                    let pairs = [0, 1, 3][usize::from(kind - 13)];
+                    assert_eq!(pull.curve_pairs(), pairs, "network {seed}");
+                }
+                if kind == 15 && n >= 500 {
+                    let (one, several) = pull.rows_of_pairs();
+                    assert!(one > 0 && several > 0, "network {seed}");
+                }
                 // (curves drawn point by point, padded to 8 or 16 points: one pair, or two)
                 if (9..=12).contains(&kind) {
                     let k = usize::from(kind - 9);
@@ -5159,7 +5172,9 @@ mod tests {
     /// 3 points, padded to 8 and 4); 5, as 4 with the last third of the links of a second pair of
     /// 5 and 6 points (the table's pairs padded to 8 and 8); 6, as 2 with a finely drawn pair
     /// (11 and 2 points, padded to 16 and 2); 7, as 6 with the last third of the links of 5's
-    /// second pair (padded to 16 and 16).
+    /// second pair (padded to 16 and 16); 8, as 2 with a pair of 40 and 3 points
+    /// ([`sampled_pair`]); 9, as 8 with the last third of the links of 3's second pair; 10, as 3
+    /// with 8's pair first.
     fn lnl_springs(seed: u64, n: usize, mix: u8) -> Network {
         let mut net = springs(seed, n, None);
         let [mut lnl, mut others @ ..] = lnl_pairs();
@@ -5167,7 +5182,7 @@ mod tests {
         match mix {
             4 | 5 => [lnl, others[0]] = [first, second],
             6 | 7 => [lnl, others[0]] = [fine, second],
-            8 => lnl = sampled_pair(),
+            8..=10 => lnl = sampled_pair(),
             _ => {}
         }
         let count = net.links.len();
@@ -5179,9 +5194,9 @@ mod tests {
                 _ => !grounding,
             } {
                 link.law = match (mix, i % 7, i * 3 / count) {
-                    (3, 3, _) => others[2].clone(),
-                    (3, _, 1 | 2) => others[i * 3 / count - 1].clone(),
-                    (5 | 7, _, 2) => others[0].clone(),
+                    (3 | 10, 3, _) => others[2].clone(),
+                    (3 | 10, _, 1 | 2) => others[i * 3 / count - 1].clone(),
+                    (5 | 7 | 9, _, 2) => others[0].clone(),
                     _ => lnl.clone(),
                 };
             }
@@ -5499,13 +5514,17 @@ mod tests {
         ]
     }
 
-    /// [`springs`] in two halves, each of LNL links of a pair of its own: every link between MAS
-    /// of the two halves is moved into the half of its end 1, but one in 40, which has a third
-    /// pair (so that some groups have LNL lanes of several pairs). The FROs that tie each MAS to
-    /// the SOL, and the CEL's links, stay.
-    fn lnl_halves(seed: u64, n: usize) -> Network {
+    /// [`springs`] in two halves, each of LNL links of a pair of its own (the first half's of 40
+    /// points when `long`, [`sampled_pair`]): every link between MAS of the two halves is moved
+    /// into the half of its end 1, but one in 40, which has a third pair (so that some groups
+    /// have LNL lanes of several pairs). The FROs that tie each MAS to the SOL, and the CEL's
+    /// links, stay.
+    fn lnl_halves(seed: u64, n: usize, long: bool) -> Network {
         let mut net = springs(seed, n, None);
-        let pairs = lnl_pairs();
+        let mut pairs = lnl_pairs();
+        if long {
+            pairs[0] = sampled_pair();
+        }
         let half = |m: MatId| usize::from(m.index() >= n / 2);
         for (i, link) in net.links.iter_mut().enumerate() {
             let (a, b) = (link.a.index(), link.b.index());
@@ -5539,25 +5558,32 @@ mod tests {
     /// groups with each row's pairs from the table (`Pull::runs`): in [`lnl_halves`] most groups
     /// are in runs of one pair and some are not, and the outputs, positions and link forces
     /// have the bits of the same engine reading every pair from the table, of the compact step,
-    /// and of three threads, at every block.
+    /// and of three threads, at every block. So too when one half's pair has 40 points (its runs
+    /// and its parts of rows evaluate it as it is, `Pull::long`).
     #[test]
     fn the_pull_step_sums_runs_of_one_pair_with_the_curves_in_registers() {
         if Avx512::detect().is_none() {
             return; // (no pull step with LNL links: `the_pull_step_gives_the_other_steps_bits`)
         }
-        for (seed, n) in [(31, 500), (32, 1203)] {
-            let net = lnl_halves(seed, n);
+        for (seed, n, long) in [(31, 500, false), (32, 1203, false), (33, 700, true)] {
+            let net = lnl_halves(seed, n, long);
             let mut pulled = Engine::new(&net);
-            let (one, table) = pulled
-                .k
-                .pull
-                .as_ref()
-                .expect("a pull step")
-                .groups_of_one_pair();
+            let pull = pulled.k.pull.as_ref().expect("a pull step");
+            let (one, table) = pull.groups_of_one_pair();
             assert_eq!(one + table, n.div_ceil(8), "network {seed}");
             assert!(
                 one > 2 * table && table > 0,
                 "network {seed}: {one} {table}"
+            );
+            assert_eq!(pull.long_curves(), long, "network {seed}");
+            let of_long = pull.groups_of_the_long_pair();
+            assert!(
+                if long {
+                    4 * of_long > one
+                } else {
+                    of_long == 0
+                },
+                "network {seed}: {of_long} of {one} groups in runs of the long pair"
             );
             let mut from_table = pulled.clone();
             from_table

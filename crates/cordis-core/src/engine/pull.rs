@@ -46,8 +46,9 @@
 //! of one pair or of a table) chooses the sum once per step; a network with LNL curves that do not
 //! evaluate eight at a time or do not pad to one point count (a zero curve among curves that are
 //! not), or pairs of curves mixed in most rows, keeps the other steps. A pair of curves of more
-//! than 16 points ([`LongCurves`], `curve.rs`'s `WideLong`) is taken when it is the network's
-//! only pair. The loads and shuffles are AVX-512 (the CPU's proof is an [`Avx512`] token). A
+//! than 16 points (one at most) is evaluated as it is ([`LongCurves`], `curve.rs`'s
+//! `WideLong`): as the network's pair when it is the only one; among others, in its own runs of
+//! groups, and as one of the table's pairs ([`LONG`], [`long_forces`]). The loads and shuffles are AVX-512 (the CPU's proof is an [`Avx512`] token). A
 //! CPU with AVX2 but not AVX-512 takes the same rows four lanes at a time ([`avx2`]), on networks
 //! of REF links only; without either the network keeps the compact or gather step.
 //!
@@ -94,6 +95,12 @@ const MIN_RUN: usize = 8;
 
 /// The bit of [`Pull::row_curves`] that marks a row whose LNL lanes have several pairs of curves.
 const PARTS: u32 = 1 << 31;
+
+/// The pair of curves of more than 16 points ([`Pull::long`]): its number in [`CelTerm::Lnl`],
+/// and its position in the table in [`Pull::row_curves`], [`Pull::parts`] and [`Pull::runs`]
+/// (it is not in the table; every other pair's number and position is smaller, checked in
+/// `Pull::new`).
+const LONG: u32 = PARTS - 1;
 
 /// MAS per group: the lanes of one AVX-512 vector.
 const LANES: usize = 8;
@@ -166,14 +173,19 @@ pub(super) struct Pull {
     /// curves when they share one; else the first pair padded to the point counts of the
     /// `table` ([`ExactPair::padded`]), the loop's shape.
     curves: Option<ExactPair>,
-    /// The network's distinct pairs of LNL curves, as declared (the CEL's terms evaluate them).
+    /// The network's distinct pairs of LNL curves of at most 16 points, as declared (the CEL's
+    /// terms evaluate them).
     pairs: Vec<ExactPair>,
-    /// When the network's LNL links all have one pair of curves of more than 16 points (that
-    /// evaluate several at a time, [`AnyPair::widens`]): that pair, pair 0 (`pairs` and `curves`
-    /// are empty). A network of such a pair and others keeps the other steps.
+    /// When some of the network's LNL links have a pair of curves of more than 16 points (that
+    /// evaluate several at a time, [`AnyPair::widens`]; one such pair at most): that pair,
+    /// [`LONG`]. Alone, it is the network's pair (`pairs` and `curves` are empty); with others,
+    /// the table holds the others, and its rows, parts and runs name it [`LONG`].
     long: Option<Box<AnyPair>>,
-    /// With several pairs: each pair padded to the most points of any ([`ExactPair::write`]),
-    /// one after another; else empty.
+    /// Whether the network has several pairs (the long one among them): then each row reads its
+    /// own ([`CurveTable`], [`Pull::runs`]).
+    several: bool,
+    /// With several pairs: each pair of at most 16 points padded to the most points of any
+    /// ([`ExactPair::write`]), one after another; else empty.
     table: Vec<f64>,
     /// With several pairs, the LNL curves of each row ([`RowCurves`]): [`NO_LNL`] when the row
     /// has no LNL lane; the position in `table` of the pair of all its LNL lanes when they share
@@ -205,8 +217,9 @@ pub(super) struct Pull {
 
 impl Pull {
     /// The pull step of `k`, if it can take one: the kernel is compiled for AVX-512, and the
-    /// network's LNL curves evaluate eight at a time ([`ExactCurve::widens`]), pad to one point
-    /// count ([`ExactPair::padded`]) and do not mix in most rows; or it is compiled for AVX2 and
+    /// network's LNL curves evaluate eight at a time ([`ExactCurve::widens`],
+    /// [`AnyPair::widens`]), pad to one point count ([`ExactPair::padded`]) but for one pair of
+    /// more than 16 points, and do not mix in most rows; or it is compiled for AVX2 and
     /// every link is a REF ([`avx2`]); and there are at least [`PULL_MIN`] MAS.
     pub(super) fn new(k: &Kernel) -> Option<Pull> {
         let isa = match k.simd {
@@ -252,11 +265,11 @@ impl Pull {
                         Some(one) if one.same_bits(any) => {}
                         Some(_) => return None,
                     }
-                    pair_of[i] = 0;
+                    pair_of[i] = LONG;
                     continue;
                 }
             };
-            if !pair.widens() || long.is_some() {
+            if !pair.widens() {
                 return None;
             }
             // (the point counts, then the numbers' bits: the same key for the same curves)
@@ -272,18 +285,16 @@ impl Pull {
                 (pairs.len() - 1) as u32
             });
         }
-        if long.is_some() && !pairs.is_empty() {
-            return None;
-        }
         // Several pairs evaluate as one shape: the smallest that has the most points of any,
-        // each padded to it.
+        // each padded to it (the long pair is evaluated as it is).
         let (a, b) = (pairs.iter().map(ExactPair::counts))
             .fold((0, 0), |(a, b), (x, y)| (a.max(x), b.max(y)));
         let (a, b) = ExactPair::shape(a, b)?;
         let mut table = Vec::new();
+        let several = pairs.len() + usize::from(long.is_some()) > 1;
         let curves = match &pairs[..] {
             [] => None,
-            [one] => Some(*one),
+            [one] if !several => Some(*one),
             [first, ..] => {
                 for pair in &pairs {
                     pair.padded(a, b)?.write(&mut table);
@@ -291,8 +302,8 @@ impl Pull {
                 Some(first.padded(a, b)?)
             }
         };
-        if table.len() >= PARTS as usize {
-            return None; // (`row_curves` are 31-bit positions)
+        if table.len() >= LONG as usize {
+            return None; // (`row_curves` are 31-bit positions, and none is `LONG`)
         }
         let lnl_pair = |l: usize| pair_of[k.lnl_of[l] as usize];
         // The terms of mobile material `s`, in summing order: `Ok((other end, link, end 1))`, with
@@ -330,6 +341,7 @@ impl Pull {
             curves,
             pairs,
             long,
+            several,
             table,
             row_curves: Vec::new(),
             parts: Vec::new(),
@@ -391,10 +403,13 @@ impl Pull {
                     row.at[i] = 16 * other;
                 }
                 p.rows.push(row);
-                if !p.table.is_empty() {
+                if p.several {
                     evaluations[0] += parts.len();
                     evaluations[1] += usize::from(!parts.is_empty());
-                    let at = |pair: u32| pair * 3 * (a + b) as u32;
+                    let at = |pair: u32| match pair {
+                        LONG => LONG,
+                        _ => pair * 3 * (a + b) as u32,
+                    };
                     p.row_curves.push(match parts[..] {
                         [] => NO_LNL,
                         [(pair, _)] => at(pair),
@@ -446,15 +461,15 @@ impl Pull {
         } else {
             but && Pull::computes_full_rows(&p.rows, |r| r.b != 0)
         };
-        if !p.table.is_empty() {
+        if p.several {
             p.runs = runs(&p.bounds, &p.row_curves);
         }
         p.recorded = k.recorded_links()?;
         assert!(p.cel_terms.iter().all(|t| match *t {
             CelTerm::Link(j, ..) | CelTerm::But(j, ..) => (j as usize) < k.nm,
             CelTerm::Lnl(j, _, pair) => {
-                let pairs = if p.long.is_some() { 1 } else { p.pairs.len() };
-                (j as usize) < k.nm && (pair as usize) < pairs
+                let known = (pair as usize) < p.pairs.len() || (pair == LONG && p.long.is_some());
+                (j as usize) < k.nm && known
             }
             CelTerm::Input(i) => (i as usize) < k.enf.len(),
         }));
@@ -540,6 +555,18 @@ impl Pull {
             start = end;
         }
         (counts[0], counts[1])
+    }
+
+    /// How many groups are in runs of the long pair ([`LONG`]).
+    #[cfg(test)]
+    pub(super) fn groups_of_the_long_pair(&self) -> usize {
+        let mut start = 0;
+        let mut count = 0;
+        for &(end, pair) in &self.runs {
+            count += if pair == Some(LONG) { end - start } else { 0 } as usize;
+            start = end;
+        }
+        count
     }
 
     /// Every group reads its pairs from the table, as before runs of one pair: the same bits
@@ -770,9 +797,9 @@ impl Pull {
                     }
                     CelTerm::Lnl(j, end2, pair) => {
                         let [xj, vj] = pc[j as usize];
-                        let force = |d: f64, dv: f64| match &self.long {
-                            Some(long) => long.force(d, dv),
-                            None => self.pairs[pair as usize].force(d, dv),
+                        let force = |d: f64, dv: f64| match (pair, &self.long) {
+                            (LONG, Some(long)) => long.force(d, dv),
+                            _ => self.pairs[pair as usize].force(d, dv),
                         };
                         // (the reference's `d` and `v` and force, negated from end 2: see
                         // `sum_lnl`)
@@ -1084,8 +1111,10 @@ struct Curves<const A: usize, const B: usize> {
 /// parts' pairs ([`RowCurves`]).
 #[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
-struct CurveTable<const A: usize, const B: usize> {
+struct CurveTable<'a, const A: usize, const B: usize> {
     full_rows: bool,
+    /// The long pair ([`LONG`]), if the network has one.
+    long: Option<&'a LongCurves<'a>>,
 }
 
 /// The LNL forces of a row's LNL lanes ([`sum_lnl`]).
@@ -1144,6 +1173,19 @@ impl LnlForces for LongCurves<'_> {
     }
 }
 
+/// The forces of the long pair `c` (not inlined into the loop of each shape of the table: one
+/// function for them all).
+///
+/// # Safety
+/// The CPU has AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline(never)]
+unsafe fn long_forces(c: &LongCurves<'_>, d: __m512d, dv: __m512d) -> __m512d {
+    // SAFETY: the caller's promise.
+    unsafe { c.forces(0, d, dv) }
+}
+
 #[cfg(target_arch = "x86_64")]
 impl Terms for LongCurves<'_> {
     #[inline(always)]
@@ -1169,6 +1211,7 @@ struct RowCurves<'t, const A: usize, const B: usize> {
     table: &'t [f64],
     row_curves: &'t [u32],
     parts: &'t [(u32, u8)],
+    long: Option<&'t LongCurves<'t>>,
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -1207,6 +1250,13 @@ impl<const A: usize, const B: usize> RowCurves<'_, A, B> {
     /// As [`LnlForces::forces`].
     #[inline(always)]
     unsafe fn pair(&self, at: u32, d: __m512d, dv: __m512d) -> __m512d {
+        if at == LONG {
+            let long = self
+                .long
+                .expect("the long pair (`Pull::new` names it only then)");
+            // SAFETY: the caller's promise.
+            return unsafe { long_forces(long, d, dv) };
+        }
         let (k, z) = read_pair::<A, B>(self.table, at);
         // SAFETY: the caller's promise (`V8`).
         unsafe {
@@ -1272,7 +1322,7 @@ impl<const A: usize, const B: usize> Terms for Curves<A, B> {
 }
 
 #[cfg(target_arch = "x86_64")]
-impl<const A: usize, const B: usize> Terms for CurveTable<A, B> {
+impl<const A: usize, const B: usize> Terms for CurveTable<'_, A, B> {
     #[inline(always)]
     unsafe fn sum<'p>(
         self,
@@ -1288,6 +1338,7 @@ impl<const A: usize, const B: usize> Terms for CurveTable<A, B> {
             table: &pull.table,
             row_curves: &pull.row_curves[rows.clone()],
             parts: &pull.parts,
+            long: self.long,
         };
         let ts = pull.row_thresholds(rows.clone());
         // SAFETY: the caller's promise.
@@ -1376,12 +1427,16 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
         // AVX-512F, which `V8` and `groups_with` need.
         unsafe {
             let full_rows = pull.full_rows;
-            if pull.table.is_empty() {
+            if !pull.several {
                 let curves = Curves::new(k, z, full_rows);
                 pull.groups_with(curves, kernel, n, gr, prev, pc, params, next, pn);
             } else {
-                // (each run of `gr`: its pair's curves, or the table)
-                let table = CurveTable::<A, B> { full_rows };
+                // (each run of `gr`: its pair's curves, the long pair's, or the table)
+                let long = (pull.long.as_deref()).map(|pair| LongCurves::new(pair, full_rows));
+                let table = CurveTable::<A, B> {
+                    full_rows,
+                    long: long.as_ref(),
+                };
                 let first = pull
                     .runs
                     .partition_point(|&(end, _)| end as usize <= gr.start);
@@ -1399,6 +1454,10 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
                     pn = rest;
                     let groups = start..end;
                     match pair {
+                        Some(LONG) => {
+                            let curves = long.expect("the long pair (`Pull::new`)");
+                            pull.groups_with(curves, kernel, n, groups, prev, pc, params, nx, px);
+                        }
                         Some(at) => {
                             let (k, z) = read_pair::<A, B>(&pull.table, at);
                             let curves = Curves::new(k, z, full_rows);
