@@ -5012,7 +5012,7 @@ mod tests {
         // (kinds: 0 springs and dampers, 1 BUTs among them, 2 to 5 LNL networks of `mix` 0 to 3,
         // 6 one BUT among springs and dampers, 7 BUTs and LNLs among them, 8 an LNL network of
         // four pairs of curves and one BUT, 9 to 12 LNL networks of `mix` 4 to 7: curves
-        // drawn point by point, 13 to 15 of `mix` 8 to 10: a pair of 40 points, with others)
+        // drawn point by point, 13 to 16 of `mix` 8 to 11: pairs of 40 points, with others)
         for (seed, n, kind) in [
             (1, 16, 0),
             (2, 40, 0),
@@ -5054,12 +5054,14 @@ mod tests {
             (38, 500, 14),
             (39, 123, 15),
             (40, 500, 15),
+            (41, 123, 16),
+            (42, 500, 16),
         ] {
             let net = match kind {
                 0 => springs(seed, n, None),
                 1 | 6 => but_springs(seed, n, kind == 1),
                 7 | 8 => but_lnl_springs(seed, n, kind == 8),
-                9..=15 => lnl_springs(seed, n, kind - 5),
+                9..=16 => lnl_springs(seed, n, kind - 5),
                 _ => lnl_springs(seed, n, kind - 2),
             };
             let but_links: Vec<LinkId> = (0..net.links.len() as u32)
@@ -5088,11 +5090,13 @@ mod tests {
                     let (one, several) = pull.rows_of_pairs();
                     assert!(one > 0 && (n < 500 || several > 0), "network {seed}");
                 }
-                // (a pair of curves of more points, evaluated as they are: alone, with one other
-                // pair by region, with three in rows of one pair and rows of several)
-                assert_eq!(pull.long_curves(), kind >= 13, "network {seed}");
+                // (pairs of curves of more points, evaluated as they are: one alone, with one
+                // other pair by region, with three in rows of one pair and rows of several; two
+                // and another by region)
+                let longs = [1, 1, 1, 2].get(usize::from(kind).wrapping_sub(13));
+                assert_eq!(pull.long_pairs(), *longs.unwrap_or(&0), "network {seed}");
                 if kind >= 13 {
-                    let pairs = [0, 1, 3][usize::from(kind - 13)];
+                    let pairs = [0, 1, 3, 1][usize::from(kind - 13)];
                     assert_eq!(pull.curve_pairs(), pairs, "network {seed}");
                 }
                 if kind == 15 && n >= 500 {
@@ -5174,7 +5178,8 @@ mod tests {
     /// (11 and 2 points, padded to 16 and 2); 7, as 6 with the last third of the links of 5's
     /// second pair (padded to 16 and 16); 8, as 2 with a pair of 40 and 3 points
     /// ([`sampled_pair`]); 9, as 8 with the last third of the links of 3's second pair; 10, as 3
-    /// with 8's pair first.
+    /// with 8's pair first; 11, as 9 with the middle third of a second pair of more than 16
+    /// points ([`resampled_pair`]).
     fn lnl_springs(seed: u64, n: usize, mix: u8) -> Network {
         let mut net = springs(seed, n, None);
         let [mut lnl, mut others @ ..] = lnl_pairs();
@@ -5182,7 +5187,7 @@ mod tests {
         match mix {
             4 | 5 => [lnl, others[0]] = [first, second],
             6 | 7 => [lnl, others[0]] = [fine, second],
-            8..=10 => lnl = sampled_pair(),
+            8..=11 => lnl = sampled_pair(),
             _ => {}
         }
         let count = net.links.len();
@@ -5196,7 +5201,8 @@ mod tests {
                 link.law = match (mix, i % 7, i * 3 / count) {
                     (3 | 10, 3, _) => others[2].clone(),
                     (3 | 10, _, 1 | 2) => others[i * 3 / count - 1].clone(),
-                    (5 | 7 | 9, _, 2) => others[0].clone(),
+                    (5 | 7 | 9 | 11, _, 2) => others[0].clone(),
+                    (11, _, 1) => resampled_pair(),
                     _ => lnl.clone(),
                 };
             }
@@ -5457,6 +5463,25 @@ mod tests {
         }
     }
 
+    /// A second pair of LNL curves of more points than an [`ExactPair`] holds: [`sampled_pair`]'s
+    /// spring, 1.2 times as stiff, sampled at 24 points (no jump), and a viscous curve sampled
+    /// at 20.
+    fn resampled_pair() -> Interaction {
+        let sampled = |n: u32, l: f64, f: &dyn Fn(f64) -> f64| {
+            let points: Vec<(f64, f64)> = (0..n)
+                .map(|i| {
+                    let x = -l + f64::from(i) * 2.0 * l / f64::from(n - 1);
+                    (x, f(x))
+                })
+                .collect();
+            Curve::new(&points).unwrap()
+        };
+        Interaction::Lnl {
+            lk: sampled(24, 0.024, &|x| 1.2 * (0.05 * x + 30.0 * x * x * x)),
+            lz: sampled(20, 0.004, &|v| 1e-3 * v + 40.0 * v * v * v),
+        }
+    }
+
     /// Three pairs of LNL curves drawn point by point, as a user draws a hardening spring: 7 and
     /// 3 points (the engine's curves of 8 and 4), 5 (with a jump) and 6 points (8 and 8), and,
     /// drawn finely, 11 and 2 points (16 and 2).
@@ -5575,8 +5600,8 @@ mod tests {
                 one > 2 * table && table > 0,
                 "network {seed}: {one} {table}"
             );
-            assert_eq!(pull.long_curves(), long, "network {seed}");
-            let of_long = pull.groups_of_the_long_pair();
+            assert_eq!(pull.long_pairs(), usize::from(long), "network {seed}");
+            let of_long = pull.groups_of_long_pairs();
             assert!(
                 if long {
                     4 * of_long > one

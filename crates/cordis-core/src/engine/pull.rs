@@ -46,9 +46,9 @@
 //! of one pair or of a table) chooses the sum once per step; a network with LNL curves that do not
 //! evaluate eight at a time or do not pad to one point count (a zero curve among curves that are
 //! not), or pairs of curves mixed in most rows, keeps the other steps. A pair of curves of more
-//! than 16 points (one at most) is evaluated as it is ([`LongCurves`], `curve.rs`'s
-//! `WideLong`): as the network's pair when it is the only one; among others, in its own runs of
-//! groups, and as one of the table's pairs ([`LONG`], [`long_forces`]). The loads and shuffles are AVX-512 (the CPU's proof is an [`Avx512`] token). A
+//! than 16 points is evaluated as it is ([`LongCurves`], `curve.rs`'s `WideLong`): as the
+//! network's pair when it is the only one; among others, in its own runs of groups, and as one
+//! of the table's pairs ([`LONGS`], [`long_forces`]). The loads and shuffles are AVX-512 (the CPU's proof is an [`Avx512`] token). A
 //! CPU with AVX2 but not AVX-512 takes the same rows four lanes at a time ([`avx2`]), on networks
 //! of REF links only; without either the network keeps the compact or gather step.
 //!
@@ -96,11 +96,11 @@ const MIN_RUN: usize = 8;
 /// The bit of [`Pull::row_curves`] that marks a row whose LNL lanes have several pairs of curves.
 const PARTS: u32 = 1 << 31;
 
-/// The pair of curves of more than 16 points ([`Pull::long`]): its number in [`CelTerm::Lnl`],
-/// and its position in the table in [`Pull::row_curves`], [`Pull::parts`] and [`Pull::runs`]
-/// (it is not in the table; every other pair's number and position is smaller, checked in
-/// `Pull::new`).
-const LONG: u32 = PARTS - 1;
+/// The pairs of curves of more than 16 points ([`Pull::longs`]): pair `i`'s number in
+/// [`CelTerm::Lnl`] and its position in the table in [`Pull::row_curves`], [`Pull::parts`] and
+/// [`Pull::runs`] are `LONGS + i` (it is not in the table; every other pair's number and
+/// position is smaller, and every such number below [`PARTS`], checked in `Pull::new`).
+const LONGS: u32 = PARTS - (1 << 20);
 
 /// MAS per group: the lanes of one AVX-512 vector.
 const LANES: usize = 8;
@@ -176,13 +176,13 @@ pub(super) struct Pull {
     /// The network's distinct pairs of LNL curves of at most 16 points, as declared (the CEL's
     /// terms evaluate them).
     pairs: Vec<ExactPair>,
-    /// When some of the network's LNL links have a pair of curves of more than 16 points (that
-    /// evaluate several at a time, [`AnyPair::widens`]; one such pair at most): that pair,
-    /// [`LONG`]. Alone, it is the network's pair (`pairs` and `curves` are empty); with others,
-    /// the table holds the others, and its rows, parts and runs name it [`LONG`].
-    long: Option<Box<AnyPair>>,
-    /// Whether the network has several pairs (the long one among them): then each row reads its
-    /// own ([`CurveTable`], [`Pull::runs`]).
+    /// The network's distinct pairs of LNL curves of more than 16 points (each of which evaluates
+    /// several at a time, [`AnyPair::widens`]), as declared, pair `i` numbered [`LONGS`]` + i`.
+    /// One alone is the network's pair (`pairs` and `curves` are empty); with others, the table
+    /// holds the others, and its rows, parts and runs name each long pair by its number.
+    longs: Vec<AnyPair>,
+    /// Whether the network has several pairs (long ones among them or not): then each row reads
+    /// its own ([`CurveTable`], [`Pull::runs`]).
     several: bool,
     /// With several pairs: each pair of at most 16 points padded to the most points of any
     /// ([`ExactPair::write`]), one after another; else empty.
@@ -250,7 +250,7 @@ impl Pull {
         let mut pairs: Vec<ExactPair> = Vec::new();
         let mut pair_of = vec![u32::MAX; k.lnl.len()];
         let mut seen: HashMap<Vec<u64>, u32> = HashMap::new();
-        let mut long: Option<Box<AnyPair>> = None;
+        let mut longs: Vec<AnyPair> = Vec::new();
         for l in (0..k.nl).filter(|&l| law[l] == Law::Lnl) {
             let i = k.lnl_of[l] as usize;
             if pair_of[i] != u32::MAX {
@@ -259,13 +259,18 @@ impl Pull {
             let pair = match &k.lnl[i] {
                 Lnl::Exact(pair) => pair,
                 Lnl::Any(any) => {
-                    match &long {
-                        _ if !any.widens() => return None,
-                        None => long = Some(any.clone()),
-                        Some(one) if one.same_bits(any) => {}
-                        Some(_) => return None,
+                    if !any.widens() {
+                        return None;
                     }
-                    pair_of[i] = LONG;
+                    let j = match longs.iter().position(|one| one.same_bits(any)) {
+                        Some(j) => j,
+                        None if longs.len() < (PARTS - LONGS) as usize => {
+                            longs.push((**any).clone());
+                            longs.len() - 1
+                        }
+                        None => return None,
+                    };
+                    pair_of[i] = LONGS + j as u32;
                     continue;
                 }
             };
@@ -286,12 +291,12 @@ impl Pull {
             });
         }
         // Several pairs evaluate as one shape: the smallest that has the most points of any,
-        // each padded to it (the long pair is evaluated as it is).
+        // each padded to it (the long pairs are evaluated as they are).
         let (a, b) = (pairs.iter().map(ExactPair::counts))
             .fold((0, 0), |(a, b), (x, y)| (a.max(x), b.max(y)));
         let (a, b) = ExactPair::shape(a, b)?;
         let mut table = Vec::new();
-        let several = pairs.len() + usize::from(long.is_some()) > 1;
+        let several = pairs.len() + longs.len() > 1;
         let curves = match &pairs[..] {
             [] => None,
             [one] if !several => Some(*one),
@@ -302,8 +307,8 @@ impl Pull {
                 Some(first.padded(a, b)?)
             }
         };
-        if table.len() >= LONG as usize {
-            return None; // (`row_curves` are 31-bit positions, and none is `LONG`)
+        if table.len() >= LONGS as usize {
+            return None; // (`row_curves` are 31-bit positions, and none a long pair's)
         }
         let lnl_pair = |l: usize| pair_of[k.lnl_of[l] as usize];
         // The terms of mobile material `s`, in summing order: `Ok((other end, link, end 1))`, with
@@ -340,7 +345,7 @@ impl Pull {
             thresholds: Vec::new(),
             curves,
             pairs,
-            long,
+            longs,
             several,
             table,
             row_curves: Vec::new(),
@@ -407,7 +412,7 @@ impl Pull {
                     evaluations[0] += parts.len();
                     evaluations[1] += usize::from(!parts.is_empty());
                     let at = |pair: u32| match pair {
-                        LONG => LONG,
+                        LONGS.. => pair,
                         _ => pair * 3 * (a + b) as u32,
                     };
                     p.row_curves.push(match parts[..] {
@@ -456,7 +461,7 @@ impl Pull {
         }
         // (with LNL links, whether the rows compute their springs and dampers, and BUTs, which
         // have a spring; else whether they compute their BUTs)
-        p.full_rows = if p.curves.is_some() || p.long.is_some() {
+        p.full_rows = if p.curves.is_some() || !p.longs.is_empty() {
             Pull::computes_full_rows(&p.rows, |r| (r.k | r.z) != 0)
         } else {
             but && Pull::computes_full_rows(&p.rows, |r| r.b != 0)
@@ -468,7 +473,9 @@ impl Pull {
         assert!(p.cel_terms.iter().all(|t| match *t {
             CelTerm::Link(j, ..) | CelTerm::But(j, ..) => (j as usize) < k.nm,
             CelTerm::Lnl(j, _, pair) => {
-                let known = (pair as usize) < p.pairs.len() || (pair == LONG && p.long.is_some());
+                let long = |i: u32| (i as usize) < p.longs.len();
+                let known =
+                    (pair as usize) < p.pairs.len() || (pair >= LONGS && long(pair - LONGS));
                 (j as usize) < k.nm && known
             }
             CelTerm::Input(i) => (i as usize) < k.enf.len(),
@@ -528,10 +535,11 @@ impl Pull {
         self.curves.map(|c| c.counts())
     }
 
-    /// Whether the LNL terms are of one pair of curves of more than 16 points ([`Pull::long`]).
+    /// How many distinct pairs of LNL curves of more than 16 points the network has
+    /// ([`Pull::longs`]).
     #[cfg(test)]
-    pub(super) fn long_curves(&self) -> bool {
-        self.long.is_some()
+    pub(super) fn long_pairs(&self) -> usize {
+        self.longs.len()
     }
 
     /// How many rows have LNL lanes of one pair, of several (with several pairs).
@@ -557,13 +565,13 @@ impl Pull {
         (counts[0], counts[1])
     }
 
-    /// How many groups are in runs of the long pair ([`LONG`]).
+    /// How many groups are in runs of a long pair ([`LONGS`]).
     #[cfg(test)]
-    pub(super) fn groups_of_the_long_pair(&self) -> usize {
+    pub(super) fn groups_of_long_pairs(&self) -> usize {
         let mut start = 0;
         let mut count = 0;
         for &(end, pair) in &self.runs {
-            count += if pair == Some(LONG) { end - start } else { 0 } as usize;
+            count += if pair >= Some(LONGS) { end - start } else { 0 } as usize;
             start = end;
         }
         count
@@ -797,8 +805,8 @@ impl Pull {
                     }
                     CelTerm::Lnl(j, end2, pair) => {
                         let [xj, vj] = pc[j as usize];
-                        let force = |d: f64, dv: f64| match (pair, &self.long) {
-                            (LONG, Some(long)) => long.force(d, dv),
+                        let force = |d: f64, dv: f64| match pair {
+                            LONGS.. => self.longs[(pair - LONGS) as usize].force(d, dv),
                             _ => self.pairs[pair as usize].force(d, dv),
                         };
                         // (the reference's `d` and `v` and force, negated from end 2: see
@@ -840,10 +848,10 @@ impl Pull {
         pn: &mut [[f64; 2]],
     ) {
         match &self.curves {
-            None if self.long.is_some() => {
-                let long = self.long.as_deref().expect("a pair (just tested)");
-                // SAFETY: this function is compiled with AVX-512F, and a pull step has
-                // `Isa::Avx512` (asserted) only with the token, the CPU's proof of it.
+            None if !self.longs.is_empty() => {
+                let long = &self.longs[0]; // (the network's one pair: not `several`)
+                                           // SAFETY: this function is compiled with AVX-512F, and a pull step has
+                                           // `Isa::Avx512` (asserted) only with the token, the CPU's proof of it.
                 assert!(matches!(self.isa, Isa::Avx512(_)));
                 let curves = unsafe { LongCurves::new(long, self.full_rows) };
                 self.groups_with(curves, k, n, gr, prev, pc, &params, next, pn)
@@ -1113,8 +1121,8 @@ struct Curves<const A: usize, const B: usize> {
 #[derive(Clone, Copy)]
 struct CurveTable<'a, const A: usize, const B: usize> {
     full_rows: bool,
-    /// The long pair ([`LONG`]), if the network has one.
-    long: Option<&'a LongCurves<'a>>,
+    /// The long pairs ([`Pull::longs`]).
+    longs: &'a [AnyPair],
 }
 
 /// The LNL forces of a row's LNL lanes ([`sum_lnl`]).
@@ -1137,7 +1145,7 @@ impl<const A: usize, const B: usize> LnlForces for Curves<A, B> {
     }
 }
 
-/// LNL terms of one pair of curves of any number of points ([`Pull::long`], evaluated by
+/// LNL terms of one pair of curves of any number of points ([`Pull::longs`], evaluated by
 /// [`WideLong`]), and RES, FRO, REF and BUT terms (as [`Curves`]).
 #[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
@@ -1173,17 +1181,18 @@ impl LnlForces for LongCurves<'_> {
     }
 }
 
-/// The forces of the long pair `c` (not inlined into the loop of each shape of the table: one
-/// function for them all).
+/// The forces of the long pair `pair` ([`LongCurves`]), for a row that reads its pairs from the
+/// table (not inlined into the loop of each shape of the table: one function for them all).
 ///
 /// # Safety
 /// The CPU has AVX-512F.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
+#[cold]
 #[inline(never)]
-unsafe fn long_forces(c: &LongCurves<'_>, d: __m512d, dv: __m512d) -> __m512d {
+unsafe fn long_forces(pair: &AnyPair, d: __m512d, dv: __m512d) -> __m512d {
     // SAFETY: the caller's promise.
-    unsafe { c.forces(0, d, dv) }
+    unsafe { LongCurves::new(pair, false).forces(0, d, dv) }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -1211,7 +1220,7 @@ struct RowCurves<'t, const A: usize, const B: usize> {
     table: &'t [f64],
     row_curves: &'t [u32],
     parts: &'t [(u32, u8)],
-    long: Option<&'t LongCurves<'t>>,
+    longs: &'t [AnyPair],
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -1250,12 +1259,9 @@ impl<const A: usize, const B: usize> RowCurves<'_, A, B> {
     /// As [`LnlForces::forces`].
     #[inline(always)]
     unsafe fn pair(&self, at: u32, d: __m512d, dv: __m512d) -> __m512d {
-        if at == LONG {
-            let long = self
-                .long
-                .expect("the long pair (`Pull::new` names it only then)");
+        if at >= LONGS {
             // SAFETY: the caller's promise.
-            return unsafe { long_forces(long, d, dv) };
+            return unsafe { long_forces(&self.longs[(at - LONGS) as usize], d, dv) };
         }
         let (k, z) = read_pair::<A, B>(self.table, at);
         // SAFETY: the caller's promise (`V8`).
@@ -1338,7 +1344,7 @@ impl<const A: usize, const B: usize> Terms for CurveTable<'_, A, B> {
             table: &pull.table,
             row_curves: &pull.row_curves[rows.clone()],
             parts: &pull.parts,
-            long: self.long,
+            longs: self.longs,
         };
         let ts = pull.row_thresholds(rows.clone());
         // SAFETY: the caller's promise.
@@ -1431,11 +1437,10 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
                 let curves = Curves::new(k, z, full_rows);
                 pull.groups_with(curves, kernel, n, gr, prev, pc, params, next, pn);
             } else {
-                // (each run of `gr`: its pair's curves, the long pair's, or the table)
-                let long = (pull.long.as_deref()).map(|pair| LongCurves::new(pair, full_rows));
+                // (each run of `gr`: its pair's curves, a long pair's, or the table)
                 let table = CurveTable::<A, B> {
                     full_rows,
-                    long: long.as_ref(),
+                    longs: &pull.longs,
                 };
                 let first = pull
                     .runs
@@ -1454,8 +1459,9 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
                     pn = rest;
                     let groups = start..end;
                     match pair {
-                        Some(LONG) => {
-                            let curves = long.expect("the long pair (`Pull::new`)");
+                        Some(at @ LONGS..) => {
+                            let long = &pull.longs[(at - LONGS) as usize];
+                            let curves = LongCurves::new(long, full_rows);
                             pull.groups_with(curves, kernel, n, groups, prev, pc, params, nx, px);
                         }
                         Some(at) => {

@@ -802,7 +802,7 @@ pub fn lnl_network(seed: u64, n: usize, inertia: u8, all: bool, uniform: bool) -
 /// a finely drawn spring (12 points) and a viscous curve of 3; 3, a spring sampled from a formula
 /// (40 points, more than the engine's fixed shapes hold) and a viscous curve of 3. The engine pads
 /// several pairs to one shape: 0 and 1 to 8 and 8, 2 alone to 16 and 4, 2 with another to 16 and
-/// 16; 3 alone it evaluates as it is.
+/// 16; 3 it evaluates as it is, alone or among others.
 pub fn drawn_lnl_network(seed: u64, n: usize, inertia: u8, pairs: &[usize]) -> Network {
     let mut net = spring_network(seed, n, 4, inertia, false);
     let pair = |k: &[(f64, f64)], z: &[(f64, f64)]| Interaction::Lnl {
