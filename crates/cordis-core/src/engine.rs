@@ -5012,7 +5012,7 @@ mod tests {
         // (kinds: 0 springs and dampers, 1 BUTs among them, 2 to 5 LNL networks of `mix` 0 to 3,
         // 6 one BUT among springs and dampers, 7 BUTs and LNLs among them, 8 an LNL network of
         // four pairs of curves and one BUT, 9 to 12 LNL networks of `mix` 4 to 7: curves
-        // drawn point by point, 13 to 16 of `mix` 8 to 11: pairs of 40 points, with others)
+        // drawn point by point, 13 to 17 of `mix` 8 to 12: pairs of 40 points, with others)
         for (seed, n, kind) in [
             (1, 16, 0),
             (2, 40, 0),
@@ -5056,12 +5056,14 @@ mod tests {
             (40, 500, 15),
             (41, 123, 16),
             (42, 500, 16),
+            (43, 40, 17),
+            (44, 500, 17),
         ] {
             let net = match kind {
                 0 => springs(seed, n, None),
                 1 | 6 => but_springs(seed, n, kind == 1),
                 7 | 8 => but_lnl_springs(seed, n, kind == 8),
-                9..=16 => lnl_springs(seed, n, kind - 5),
+                9..=17 => lnl_springs(seed, n, kind - 5),
                 _ => lnl_springs(seed, n, kind - 2),
             };
             let but_links: Vec<LinkId> = (0..net.links.len() as u32)
@@ -5092,11 +5094,11 @@ mod tests {
                 }
                 // (pairs of curves of more points, evaluated as they are: one alone, with one
                 // other pair by region, with three in rows of one pair and rows of several; two
-                // and another by region)
-                let longs = [1, 1, 1, 2].get(usize::from(kind).wrapping_sub(13));
+                // and another by region; two alone)
+                let longs = [1, 1, 1, 2, 2].get(usize::from(kind).wrapping_sub(13));
                 assert_eq!(pull.long_pairs(), *longs.unwrap_or(&0), "network {seed}");
                 if kind >= 13 {
-                    let pairs = [0, 1, 3, 1][usize::from(kind - 13)];
+                    let pairs = [0, 1, 3, 1, 0][usize::from(kind - 13)];
                     assert_eq!(pull.curve_pairs(), pairs, "network {seed}");
                 }
                 if kind == 15 && n >= 500 {
@@ -5179,7 +5181,7 @@ mod tests {
     /// second pair (padded to 16 and 16); 8, as 2 with a pair of 40 and 3 points
     /// ([`sampled_pair`]); 9, as 8 with the last third of the links of 3's second pair; 10, as 3
     /// with 8's pair first; 11, as 9 with the middle third of a second pair of more than 16
-    /// points ([`resampled_pair`]).
+    /// points ([`resampled_pair`]); 12, as 8 with the last two thirds of that second pair.
     fn lnl_springs(seed: u64, n: usize, mix: u8) -> Network {
         let mut net = springs(seed, n, None);
         let [mut lnl, mut others @ ..] = lnl_pairs();
@@ -5187,7 +5189,7 @@ mod tests {
         match mix {
             4 | 5 => [lnl, others[0]] = [first, second],
             6 | 7 => [lnl, others[0]] = [fine, second],
-            8..=11 => lnl = sampled_pair(),
+            8..=12 => lnl = sampled_pair(),
             _ => {}
         }
         let count = net.links.len();
@@ -5202,7 +5204,7 @@ mod tests {
                     (3 | 10, 3, _) => others[2].clone(),
                     (3 | 10, _, 1 | 2) => others[i * 3 / count - 1].clone(),
                     (5 | 7 | 9 | 11, _, 2) => others[0].clone(),
-                    (11, _, 1) => resampled_pair(),
+                    (11, _, 1) | (12, _, 1 | 2) => resampled_pair(),
                     _ => lnl.clone(),
                 };
             }

@@ -48,8 +48,8 @@
 //! not), or pairs of curves mixed in most rows, keeps the other steps. A pair of curves of more
 //! than 16 points is evaluated as it is ([`LongCurves`], `curve.rs`'s `WideLong`): as the
 //! network's pair when it is the only one; among others, in its own runs of groups, and as one
-//! of the table's pairs ([`LONGS`], [`long_forces`]). The loads and shuffles are AVX-512 (the CPU's proof is an [`Avx512`] token). A
-//! CPU with AVX2 but not AVX-512 takes the same rows four lanes at a time ([`avx2`]), on networks
+//! of the table's pairs ([`LONGS`], [`long_forces`]). The loads and shuffles are AVX-512 (the
+//! CPU's proof is an [`Avx512`] token). A CPU with AVX2 but not AVX-512 takes the same rows four lanes at a time ([`avx2`]), on networks
 //! of REF links only; without either the network keeps the compact or gather step.
 //!
 //! CEL (few in practice) pull their terms one at a time with the same expressions; ENX read
@@ -64,6 +64,7 @@ use std::collections::HashMap;
 use std::hint::black_box;
 use std::ops::Range;
 
+use crate::curve::Curve;
 use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
 
 use super::{AnyPair, Claim, ExactPair, Kernel, Law, Lnl, MasLaw, PairFn, Roles, Run, Simd};
@@ -170,8 +171,9 @@ pub(super) struct Pull {
     /// other lanes), when the network has a BUT; else empty.
     thresholds: Vec<[f64; LANES]>,
     /// When the network has LNL links (of curves that evaluate eight at a time): their pair of
-    /// curves when they share one; else the first pair padded to the point counts of the
-    /// `table` ([`ExactPair::padded`]), the loop's shape.
+    /// curves when they share one of at most 16 points; with several pairs, the first such pair
+    /// padded to the point counts of the `table` ([`ExactPair::padded`]), or the zero pair when
+    /// every pair is long, the loop's shape; `None` for one long pair ([`Pull::longs`]).
     curves: Option<ExactPair>,
     /// The network's distinct pairs of LNL curves of at most 16 points, as declared (the CEL's
     /// terms evaluate them).
@@ -218,8 +220,8 @@ pub(super) struct Pull {
 impl Pull {
     /// The pull step of `k`, if it can take one: the kernel is compiled for AVX-512, and the
     /// network's LNL curves evaluate eight at a time ([`ExactCurve::widens`],
-    /// [`AnyPair::widens`]), pad to one point count ([`ExactPair::padded`]) but for one pair of
-    /// more than 16 points, and do not mix in most rows; or it is compiled for AVX2 and
+    /// [`AnyPair::widens`]), those of at most 16 points pad to one point count
+    /// ([`ExactPair::padded`]), and the pairs do not mix in most rows; or it is compiled for AVX2 and
     /// every link is a REF ([`avx2`]); and there are at least [`PULL_MIN`] MAS.
     pub(super) fn new(k: &Kernel) -> Option<Pull> {
         let isa = match k.simd {
@@ -298,7 +300,9 @@ impl Pull {
         let mut table = Vec::new();
         let several = pairs.len() + longs.len() > 1;
         let curves = match &pairs[..] {
-            [] => None,
+            [] if !several => None,
+            // (every pair long: the loop's shape is the zero pair's, and the table is empty)
+            [] => ExactPair::new(&Curve::zero(), &Curve::zero()),
             [one] if !several => Some(*one),
             [first, ..] => {
                 for pair in &pairs {
@@ -848,10 +852,11 @@ impl Pull {
         pn: &mut [[f64; 2]],
     ) {
         match &self.curves {
+            // (no `curves`, so one pair: several have the table's shape, `Pull::new`)
             None if !self.longs.is_empty() => {
-                let long = &self.longs[0]; // (the network's one pair: not `several`)
-                                           // SAFETY: this function is compiled with AVX-512F, and a pull step has
-                                           // `Isa::Avx512` (asserted) only with the token, the CPU's proof of it.
+                let long = &self.longs[0];
+                // SAFETY: this function is compiled with AVX-512F, and a pull step has
+                // `Isa::Avx512` (asserted) only with the token, the CPU's proof of it.
                 assert!(matches!(self.isa, Isa::Avx512(_)));
                 let curves = unsafe { LongCurves::new(long, self.full_rows) };
                 self.groups_with(curves, k, n, gr, prev, pc, &params, next, pn)
