@@ -5586,7 +5586,7 @@ mod tests {
     /// are in runs of one pair and some are not, and the outputs, positions and link forces
     /// have the bits of the same engine reading every pair from the table, of the compact step,
     /// and of three threads, at every block. So too when one half's pair has 40 points (its runs
-    /// and its parts of rows evaluate it as it is, `Pull::long`).
+    /// and its parts of rows evaluate it as it is, `Pull::longs`).
     #[test]
     fn the_pull_step_sums_runs_of_one_pair_with_the_curves_in_registers() {
         if Avx512::detect().is_none() {
