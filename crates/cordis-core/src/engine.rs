@@ -1408,7 +1408,9 @@ impl Kernel {
     /// A network without locality (one that takes the compact step, whose links are scattered,
     /// or whose links and MAS are mostly read through index lists) also gets the pull step
     /// (`engine/pull.rs`) when the CPU has AVX-512 and its links are RES, FRO, REF and BUT, or
-    /// RES, FRO, REF and LNL of one pair of curves (with AVX2 only, when every link is a REF): [`Engine::process`] then takes it, on one thread or on the pool's
+    /// RES, FRO, REF and LNL of one pair of curves (with AVX2 only, when every link is a REF or a
+    /// BUT, or a REF or an LNL of one pair of at most 16 points): [`Engine::process`] then takes it, on
+    /// one thread or on the pool's
     /// (`pull::PullJob`). Membranes, each of one
     /// REF law, their borders fixed or free, and strings, alone or with at most half as much
     /// around them, get the grid step instead when the CPU has AVX-512 or AVX2 (`engine/grid.rs`,
@@ -4906,7 +4908,7 @@ mod tests {
     /// On a CPU with AVX2 but not AVX-512, networks of REF links take the pull step four lanes
     /// at a time (`engine/pull/avx2.rs`), and it gives the other steps' bits at every step, on
     /// one thread or two, for every inertia law, links of one `K` and `Z` or each its own, whole
-    /// and partial groups; a network with another law keeps the other steps.
+    /// and partial groups; a network with RES and FRO links keeps the other steps.
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_avx2_pull_step_gives_the_other_steps_bits() {
@@ -4917,46 +4919,159 @@ mod tests {
             .k
             .pull
             .is_none());
-        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         for (seed, n) in [(1, 16), (2, 43), (3, 123), (4, 500)] {
             for inertia in 0..4 {
                 for uniform in [true, false] {
                     let what = format!("network {seed}, inertia {inertia}, uniform {uniform}");
                     let net = ref_springs(seed, n, inertia, uniform);
-                    let mut pulled = Engine::new_for(&net, Simd::Avx2);
+                    let pulled = Engine::new_for(&net, Simd::Avx2);
                     assert!(pulled.k.pull.is_some(), "{what}");
                     assert_eq!(pulled.k.pull.as_ref().unwrap().shared_params(), uniform);
-                    let mut other = pulled.clone();
-                    let mut threaded = pulled.clone();
-                    threaded.set_parallel_threshold(0);
-                    threaded.set_threads(2);
-                    assert!(threaded.is_parallel());
-                    let mut scalar = Engine::new_for(&net, Simd::None);
-                    assert!(scalar.k.pull.is_none());
-                    let ch = pulled.channels();
-                    let mut moved = false;
-                    for (i, block) in [1, 7, 300, 64, 1024].into_iter().enumerate() {
-                        let mut out = [(); 4].map(|()| vec![0.0; block * ch]);
-                        let [a, b, c, d] = &mut out;
-                        assert!(pulled.process(block, a).is_ok());
-                        assert!(other.process_observed(block, b, &mut |_| {}).is_ok());
-                        assert!(threaded.process(block, c).is_ok());
-                        assert!(scalar.process(block, d).is_ok());
-                        for (j, o) in [&*b, &*c, &*d].into_iter().enumerate() {
-                            assert_eq!(bits(a), bits(o), "{what}, block {i}, engine {j}");
-                        }
-                        moved |= a.iter().any(|&v| v != a[0]);
-                    }
-                    assert!(moved, "{what}");
-                    for m in (0..net.materials.len() as u32).map(MatId) {
-                        let (x, xp) = (scalar.position(m), scalar.previous_position(m));
-                        for e in [&pulled, &threaded] {
-                            assert_eq!(e.position(m).to_bits(), x.to_bits(), "{what}");
-                            assert_eq!(e.previous_position(m).to_bits(), xp.to_bits());
-                        }
-                    }
+                    the_avx2_pull_step_gives_the_scalar_bits(&net, &what);
                 }
             }
+        }
+    }
+
+    /// `net`, which takes the AVX2 pull step, gives the bits of the scalar build (the compact or
+    /// gather step) at every block, on one thread and on two, through `process` and
+    /// `process_observed` (the other steps), in its outputs and its positions.
+    #[cfg(target_arch = "x86_64")]
+    fn the_avx2_pull_step_gives_the_scalar_bits(net: &Network, what: &str) {
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let mut pulled = Engine::new_for(net, Simd::Avx2);
+        assert!(pulled.k.pull.is_some(), "{what}");
+        let mut other = pulled.clone();
+        let mut threaded = pulled.clone();
+        threaded.set_parallel_threshold(0);
+        threaded.set_threads(2);
+        assert!(threaded.is_parallel());
+        let mut scalar = Engine::new_for(net, Simd::None);
+        assert!(scalar.k.pull.is_none());
+        let ch = pulled.channels();
+        let mut moved = false;
+        for (i, block) in [1, 7, 300, 64, 1024].into_iter().enumerate() {
+            let mut out = [(); 4].map(|()| vec![0.0; block * ch]);
+            let [a, b, c, d] = &mut out;
+            assert!(pulled.process(block, a).is_ok());
+            assert!(other.process_observed(block, b, &mut |_| {}).is_ok());
+            assert!(threaded.process(block, c).is_ok());
+            assert!(scalar.process(block, d).is_ok());
+            for (j, o) in [&*b, &*c, &*d].into_iter().enumerate() {
+                assert_eq!(bits(a), bits(o), "{what}, block {i}, engine {j}");
+            }
+            moved |= a.iter().any(|&v| v != a[0]);
+        }
+        assert!(moved, "{what}");
+        for m in (0..net.materials.len() as u32).map(MatId) {
+            let (x, xp) = (scalar.position(m), scalar.previous_position(m));
+            for e in [&pulled, &threaded] {
+                assert_eq!(e.position(m).to_bits(), x.to_bits(), "{what}");
+                assert_eq!(e.previous_position(m).to_bits(), xp.to_bits());
+            }
+        }
+    }
+
+    /// [`ref_springs`] with LNL links of `pair`: every link (`every` 1), or every third (2:
+    /// rows of REF, LNL and padding lanes), the MAS at either end, some tied to the CEL, the
+    /// SOL or the ENX.
+    fn lnl_ref_springs(
+        seed: u64,
+        n: usize,
+        inertia: usize,
+        pair: &Interaction,
+        every: usize,
+    ) -> Network {
+        let mut net = ref_springs(seed, n, inertia, false);
+        for (i, link) in net.links.iter_mut().enumerate() {
+            if every == 1 || i % 3 == 1 {
+                link.law = pair.clone();
+            }
+        }
+        net
+    }
+
+    /// On a CPU with AVX2 but not AVX-512, networks of REF links and LNL links of one pair of
+    /// curves of at most 16 points take the pull step four lanes at a time (`avx2::Curves4`), and
+    /// give the scalar build's bits: pairs of 4 and 3 points, with a jump, drawn (7 and 3, padded
+    /// to 8 and 4), finely drawn (11 and 2, padded to 16 and 2) and with a zero viscous curve;
+    /// every link LNL or every third, rows computing their REF terms in full or not, every
+    /// inertia law, whole and partial groups. So do networks of REF and BUT links
+    /// (`avx2::Buts4`): every fourth link a BUT, in and out of contact, thresholds of both signs
+    /// and zero, or one BUT (a hammer's), rows computing their BUTs in full or not. Two pairs, a
+    /// pair of more than 16 points, BUTs with LNLs, or RES and FRO links keep the other steps.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_avx2_pull_step_takes_but_and_lnl_networks() {
+        if !std::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        // (the rows computed the other way: every row its REF or BUT terms, or only those that
+        // have one)
+        let toggled_gives_the_scalar_bits = |net: &Network, what: &str| {
+            let mut toggled = Engine::new_for(net, Simd::Avx2);
+            let pull = toggled.k.pull.as_mut().unwrap();
+            let full = pull.has_full_rows();
+            pull.toggle_full_rows();
+            let mut scalar = Engine::new_for(net, Simd::None);
+            let [mut a, mut b] = [(); 2].map(|()| vec![0.0; 700 * scalar.channels()]);
+            assert!(toggled.process(700, &mut a).is_ok());
+            assert!(scalar.process(700, &mut b).is_ok());
+            let same = a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits());
+            assert!(same, "{what}, the rows the other way");
+            full
+        };
+        let mut seen_full = [false; 2];
+        for (seed, n, inertia, every) in [
+            (5, 16, 0, true),
+            (6, 43, 1, false),
+            (7, 123, 2, true),
+            (8, 500, 3, true),
+            (9, 500, 1, false),
+        ] {
+            let what = format!("BUT network {seed}, every {every}");
+            let mut net = ref_springs(seed, n, inertia, false);
+            for (i, link) in net.links.iter_mut().enumerate() {
+                if if every { i % 4 == 1 } else { i == 1 } {
+                    link.law = but_of(i);
+                }
+            }
+            the_avx2_pull_step_gives_the_scalar_bits(&net, &what);
+            seen_full[usize::from(toggled_gives_the_scalar_bits(&net, &what))] = true;
+        }
+        assert_eq!(seen_full, [true, true]);
+        let [four, _, _, jump] = lnl_pairs();
+        let [drawn, _, fine] = drawn_pairs();
+        let zero = Interaction::Lnl {
+            lk: Curve::new(&[(-0.01, -6e-4), (0.01, 5e-4)]).unwrap(),
+            lz: Curve::zero(),
+        };
+        let pairs = [four.clone(), jump, drawn, fine, zero];
+        seen_full = [false; 2];
+        for (p, pair) in pairs.iter().enumerate() {
+            for (seed, n, inertia, every) in
+                [(1, 16, 0, 1), (2, 43, 1, 2), (3, 123, 2, 1), (4, 500, 3, 2)]
+            {
+                let what = format!("pair {p}, network {seed}, every {every}");
+                let net = lnl_ref_springs(seed + 10 * p as u64, n, inertia, pair, every);
+                the_avx2_pull_step_gives_the_scalar_bits(&net, &what);
+                let pulled = Engine::new_for(&net, Simd::Avx2);
+                assert_eq!(pulled.k.pull.unwrap().curve_pairs(), 1, "{what}");
+                seen_full[usize::from(toggled_gives_the_scalar_bits(&net, &what))] = true;
+            }
+        }
+        assert_eq!(seen_full, [true, true]);
+        // refused: two pairs, a pair of more than 16 points, BUTs with LNLs, RES and FRO links
+        let mut two = lnl_ref_springs(1, 40, 0, &four, 2);
+        two.links[4].law = lnl_pairs()[1].clone();
+        let long = lnl_ref_springs(1, 40, 0, &sampled_pair(), 2);
+        let mut but = lnl_ref_springs(1, 40, 0, &four, 2);
+        but.links[3].law = but_of(3);
+        let mut res = lnl_ref_springs(1, 40, 0, &four, 2);
+        res.links[3].law = Interaction::Res { k: 0.03 };
+        for net in [two, long, but, res] {
+            assert!(Engine::new_for(&net, Simd::Avx2).k.pull.is_none());
+            assert!(Avx512::detect().is_none() || Engine::new(&net).k.pull.is_some());
         }
     }
 

@@ -49,8 +49,10 @@
 //! than 16 points is evaluated as it is ([`LongCurves`], `curve.rs`'s `WideLong`): as the
 //! network's pair when it is the only one; among others, in its own runs of groups, and as one
 //! of the table's pairs ([`LONGS`], [`long_forces`]). The loads and shuffles are AVX-512 (the
-//! CPU's proof is an [`Avx512`] token). A CPU with AVX2 but not AVX-512 takes the same rows four lanes at a time ([`avx2`]), on networks
-//! of REF links only; without either the network keeps the compact or gather step.
+//! CPU's proof is an [`Avx512`] token). A CPU with AVX2 but not AVX-512 takes the same rows four
+//! lanes at a time ([`avx2`]), on networks of REF links with BUT links or with LNL links of one
+//! pair of curves of at most 16 points; without either the network keeps the compact or gather
+//! step.
 //!
 //! CEL (few in practice) pull their terms one at a time with the same expressions; ENX read
 //! their signal; SOL never change. The pair buffers are rebuilt from the positions at the start
@@ -222,7 +224,8 @@ impl Pull {
     /// network's LNL curves evaluate eight at a time ([`ExactCurve::widens`],
     /// [`AnyPair::widens`]), those of at most 16 points pad to one point count
     /// ([`ExactPair::padded`]), and the pairs do not mix in most rows; or it is compiled for AVX2 and
-    /// every link is a REF ([`avx2`]); and there are at least [`PULL_MIN`] MAS.
+    /// every link is a REF and a BUT, or a REF and an LNL of one pair of curves of at most 16
+    /// points ([`avx2`]); and there are at least [`PULL_MIN`] MAS.
     pub(super) fn new(k: &Kernel) -> Option<Pull> {
         let isa = match k.simd {
             #[cfg(target_arch = "x86_64")]
@@ -238,7 +241,7 @@ impl Pull {
         for run in &k.whole.runs {
             let pulled = match isa {
                 Isa::Avx512(_) => true,
-                Isa::Avx2 => run.law == Law::Ref,
+                Isa::Avx2 => matches!(run.law, Law::Ref | Law::But | Law::Lnl),
             };
             if !pulled {
                 return None;
@@ -299,6 +302,11 @@ impl Pull {
         let (a, b) = ExactPair::shape(a, b)?;
         let mut table = Vec::new();
         let several = pairs.len() + longs.len() > 1;
+        let lnl_and_but = law.contains(&Law::Lnl) && law.contains(&Law::But);
+        if isa == Isa::Avx2 && (several || !longs.is_empty() || lnl_and_but) {
+            // (AVX2 sums one pair of at most 16 points, `avx2::Curves4`, without BUTs)
+            return None;
+        }
         let curves = match &pairs[..] {
             [] if !several => None,
             // (every pair long: the loop's shape is the zero pair's, and the table is empty)

@@ -2,10 +2,13 @@
 //! step (see the parent module), each group's eight lanes as two vectors of four.
 //!
 //! AVX2 has no mask registers, and the pull step's masks (a term's absent spring or damper, a
-//! padding term) cost more to build from bits than the term's arithmetic. So this step takes only
-//! networks of REF links, where no term lacks a product, and computes the padding terms in full:
-//! a padding term names the lane's own MAS, `g = K (x - x) + Z (v - v)`, with the row's `K` and
-//! `Z` (those of the network when every link has the same, `0.0` otherwise).
+//! padding term) cost more to build from bits than a REF term's arithmetic. So this step takes
+//! networks of REF links, where no term lacks a product, with BUT links ([`Buts4`]) or LNL links of
+//! one pair of curves of at most 16 points ([`Curves4`]), and computes the padding terms in full: a padding
+//! term names the lane's own MAS, `g = K (x - x) + Z (v - v)`, with the row's `K` and `Z` (those
+//! of the network when every link has the same, `0.0` otherwise). A BUT or LNL term costs more
+//! than a REF term, so there a mask is worth its load: each half of a row's BUT or LNL lanes,
+//! four bits, reads its mask from a table of sixteen ([`lanes`]).
 //!
 //! **Why the bits are the reference's.** The REF terms are the parent module's, operand for
 //! operand. While every position is finite, so is every `x - x`, which is `+0.0`; if `v - v` is
@@ -23,7 +26,9 @@ use std::hint::black_box;
 use std::ops::Range;
 
 use super::{split_whole, Kernel, MasLaw, Pull, Row, LANES};
-use crate::engine::{by_div, by_inv};
+use crate::curve::{ExactCurve, WideCurve};
+use crate::engine::{by_div, by_inv, PairFn};
+use crate::wide::{Vector, V4};
 
 /// Lanes of an AVX2 vector of `f64`.
 const HALF: usize = LANES / 2;
@@ -46,18 +51,60 @@ impl Pull {
         next: &mut [f64],
         pn: &mut [[f64; 2]],
     ) {
+        match &self.curves {
+            Some(pair) => pair.visit(WithCurves4 {
+                pull: self,
+                k,
+                n,
+                gr,
+                cur,
+                prev,
+                pc,
+                params: &params,
+                next,
+                pn,
+            }),
+            None if !self.thresholds.is_empty() && self.full_rows => {
+                self.groups_avx2_with(Buts4::<false>, k, n, gr, cur, prev, pc, &params, next, pn)
+            }
+            None if !self.thresholds.is_empty() => {
+                self.groups_avx2_with(Buts4::<true>, k, n, gr, cur, prev, pc, &params, next, pn)
+            }
+            None => self.groups_avx2_with(Refs, k, n, gr, cur, prev, pc, &params, next, pn),
+        }
+    }
+
+    /// [`Pull::groups_avx2`] with the group sums of `terms`, a function of its own for each kind
+    /// of terms (as the AVX-512 step's `groups_with`).
+    #[target_feature(enable = "avx2")]
+    #[allow(clippy::too_many_arguments)] // the step's buffers
+    #[inline(never)]
+    fn groups_avx2_with<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, T: Terms4>(
+        &self,
+        terms: T,
+        k: &Kernel,
+        n: u64,
+        gr: Range<usize>,
+        cur: &[f64],
+        prev: &[f64],
+        pc: &[[f64; 2]],
+        params: &impl Fn(Range<usize>) -> I,
+        next: &mut [f64],
+        pn: &mut [[f64; 2]],
+    ) {
         let ([whole, part], (next, next_part), (pn, pn_part)) = split_whole(k, gr, next, pn);
         let none: &[f64] = &[];
         macro_rules! whole {
             ($div:literal, $per:literal, $m:expr, $ms:expr) => {
-                self.whole_avx2::<_, $div, $per>(
+                self.whole_avx2::<_, _, $div, $per>(
+                    terms,
                     k,
                     n,
                     whole.clone(),
                     cur,
                     prev,
                     pc,
-                    &params,
+                    params,
                     $m,
                     $ms,
                     next,
@@ -86,10 +133,12 @@ impl Pull {
     fn whole_avx2<
         'p,
         I: Iterator<Item = &'p [[f64; LANES]; 2]>,
+        T: Terms4,
         const DIV: bool,
         const PER_MAS: bool,
     >(
         &self,
+        terms: T,
         k: &Kernel,
         n: u64,
         gr: Range<usize>,
@@ -127,7 +176,7 @@ impl Pull {
             let rows = rows[0] as usize..rows[1] as usize;
             // SAFETY: every row's offsets are those of pairs `< nm` (asserted in `new`), and `pc`
             // has `nm` pairs (asserted in `step`).
-            let mut f = unsafe { sum(&self.rows[rows.clone()], params(rows), base, x, v) };
+            let mut f = unsafe { terms.sum(self, rows.clone(), params(rows), base, x, v) };
             let inputs = &self.enf[inputs[0] as usize..inputs[1] as usize];
             if !inputs.is_empty() {
                 let mut lanes_f = [0.0; LANES];
@@ -178,9 +227,10 @@ impl Pull {
         }
     }
 
-    /// The partial group `g` (the last), lane by lane: the REF terms of the lane's rows (those
-    /// its mask bits name; the others are padding, skipped), then its ENF inputs, with the
-    /// reference's expressions.
+    /// The partial group `g` (the last), lane by lane: the REF, BUT and LNL terms of the lane's
+    /// rows (those its mask bits name; the others are padding, skipped), then its ENF inputs,
+    /// with the reference's expressions (a BUT or LNL term from end 2's side as the AVX-512
+    /// step's `sum_but` and `sum_lnl` compute it).
     #[allow(clippy::too_many_arguments)] // the step's buffers
     fn part<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>>(
         &self,
@@ -204,12 +254,27 @@ impl Pull {
             let (x, xp) = (cur[s], prev[s]);
             let v = x - xp;
             let mut f = 0.0;
-            for (row, [kr, zr]) in self.rows[rows.clone()].iter().zip(params(rows.clone())) {
-                if row.k & (1 << i) == 0 {
-                    continue; // (padding: every term of this step's networks is a REF)
-                }
+            for (r, [kr, zr]) in rows.clone().zip(params(rows.clone())) {
+                let row = &self.rows[r];
                 let [xj, vj] = pc[row.at[i] as usize / 16];
-                f -= kr[i] * (x - xj) + zr[i] * (v - vj);
+                let end2 = row.flip & (1 << i) != 0;
+                if row.b & (1 << i) != 0 && self.thresholds.is_empty() {
+                    let pair = self.curves.as_ref().expect("an LNL network has its pair");
+                    let (d, dv) = (x - xj, v - vj);
+                    f -= if end2 {
+                        -pair.force(-d, -dv)
+                    } else {
+                        pair.force(d, dv)
+                    };
+                } else if row.b & (1 << i) != 0 {
+                    // (a BUT, as the CEL's: `t` and the contact test from the lane's side)
+                    let t = (x - xj) + self.thresholds[r][i];
+                    if if end2 { t < 0.0 } else { t > 0.0 } {
+                        f -= kr[i] * t + zr[i] * (v - vj);
+                    }
+                } else if row.k & (1 << i) != 0 {
+                    f -= kr[i] * (x - xj) + zr[i] * (v - vj);
+                } // (else padding: every other term of this step's networks is a REF)
             }
             for &(_, e) in inputs.iter().filter(|&&(l, _)| l as usize == i) {
                 f += k.enf[e as usize].at(n);
@@ -224,6 +289,291 @@ impl Pull {
             pn[i] = [xn, xn - x];
         }
     }
+}
+
+/// The kind of terms a network's rows have, and how a group sums them with AVX2: [`Refs`],
+/// [`Buts4`] or [`Curves4`], chosen once per step ([`Pull::groups_avx2`]).
+trait Terms4: Copy {
+    /// `F(n)` of the eight lanes of a group, as two vectors: from `+0.0`, `F - g` for each of
+    /// its rows `rows` of `pull` (see [`sum`]).
+    ///
+    /// # Safety
+    /// The CPU has AVX2 and the calling function is compiled with it; every offset of the rows is
+    /// that of a pair within the buffer at `base`.
+    unsafe fn sum<'p>(
+        self,
+        pull: &Pull,
+        rows: Range<usize>,
+        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+        base: *const u8,
+        x: [__m256d; 2],
+        v: [__m256d; 2],
+    ) -> [__m256d; 2];
+}
+
+/// REF terms ([`sum`]).
+#[derive(Clone, Copy)]
+struct Refs;
+
+impl Terms4 for Refs {
+    #[inline(always)]
+    unsafe fn sum<'p>(
+        self,
+        pull: &Pull,
+        rows: Range<usize>,
+        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+        base: *const u8,
+        x: [__m256d; 2],
+        v: [__m256d; 2],
+    ) -> [__m256d; 2] {
+        // SAFETY: the caller's promise.
+        unsafe { sum(&pull.rows[rows], params, base, x, v) }
+    }
+}
+
+/// REF and BUT terms ([`sum_but`]; BUTs only in the rows that have one when `SKIP`, that is
+/// when not `Pull::full_rows`).
+#[derive(Clone, Copy)]
+struct Buts4<const SKIP: bool>;
+
+impl<const SKIP: bool> Terms4 for Buts4<SKIP> {
+    #[inline(always)]
+    unsafe fn sum<'p>(
+        self,
+        pull: &Pull,
+        rows: Range<usize>,
+        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+        base: *const u8,
+        x: [__m256d; 2],
+        v: [__m256d; 2],
+    ) -> [__m256d; 2] {
+        let ts = &pull.thresholds[rows.clone()];
+        // SAFETY: the caller's promise; `ts` has a row of thresholds for each row (`Pull::new`).
+        unsafe { sum_but::<SKIP>(&pull.rows[rows], params, ts, base, x, v) }
+    }
+}
+
+/// LNL terms of one pair of curves of `A` and `B` points, four lanes at a time, and REF terms
+/// ([`sum_lnl`]; in every row when `full_rows`, else in the rows that have them).
+#[derive(Clone, Copy)]
+struct Curves4<const A: usize, const B: usize> {
+    k: WideCurve<V4, A>,
+    z: WideCurve<V4, B>,
+    full_rows: bool,
+}
+
+impl<const A: usize, const B: usize> Terms4 for Curves4<A, B> {
+    #[inline(always)]
+    unsafe fn sum<'p>(
+        self,
+        pull: &Pull,
+        rows: Range<usize>,
+        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+        base: *const u8,
+        x: [__m256d; 2],
+        v: [__m256d; 2],
+    ) -> [__m256d; 2] {
+        // SAFETY: the caller's promise.
+        unsafe { sum_lnl(&self, &pull.rows[rows], params, base, x, v) }
+    }
+}
+
+/// [`Pull::groups_avx2`] for a network of LNL links: [`Pull::groups_avx2_with`] with
+/// [`Curves4`] of the network's point counts.
+struct WithCurves4<'a, 'b, P> {
+    pull: &'a Pull,
+    k: &'a Kernel,
+    n: u64,
+    gr: Range<usize>,
+    cur: &'a [f64],
+    prev: &'a [f64],
+    pc: &'a [[f64; 2]],
+    params: &'a P,
+    next: &'b mut [f64],
+    pn: &'b mut [[f64; 2]],
+}
+
+impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> PairFn
+    for WithCurves4<'_, '_, P>
+{
+    type Out = ();
+
+    fn call<const A: usize, const B: usize>(self, k: ExactCurve<A>, z: ExactCurve<B>) {
+        let WithCurves4 {
+            pull,
+            k: kernel,
+            n,
+            gr,
+            cur,
+            prev,
+            pc,
+            params,
+            next,
+            pn,
+        } = self;
+        // SAFETY: this step runs only where `Simd::detect` found AVX2 (see `Pull::step`), which
+        // `V4` and `groups_avx2_with` need.
+        unsafe {
+            let curves = Curves4 {
+                k: k.wide::<V4>(),
+                z: z.wide::<V4>(),
+                full_rows: pull.full_rows,
+            };
+            pull.groups_avx2_with(curves, kernel, n, gr, cur, prev, pc, params, next, pn);
+        }
+    }
+}
+
+/// Masks of four lanes: item `m` is all ones in lane `j` where bit `j` of `m` is set, else
+/// zeros (aligned: each item is one aligned 32-byte load).
+#[repr(align(32))]
+struct Nibbles([[u64; HALF]; 16]);
+
+static NIBBLES: Nibbles = Nibbles({
+    let mut t = [[0; HALF]; 16];
+    let mut m = 0;
+    while m < 16 {
+        let mut j = 0;
+        while j < HALF {
+            if (m >> j) & 1 == 1 {
+                t[m][j] = u64::MAX;
+            }
+            j += 1;
+        }
+        m += 1;
+    }
+    t
+});
+
+/// Lanes `4 h..4 h + 4` of the eight of `bits` as a mask of four lanes ([`Nibbles`]).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn lanes(bits: u8, h: usize) -> __m256d {
+    let m = &NIBBLES.0[usize::from(bits >> (HALF * h)) & 15];
+    // SAFETY: four `u64`, 32-byte aligned (`Nibbles` is, and each item is 32 bytes).
+    unsafe { _mm256_load_pd(m.as_ptr().cast::<f64>()) }
+}
+
+/// [`sum`] for rows whose lanes `row.b` have BUT terms, with a threshold `ts` per row and lane
+/// (`S` where the lane's MAS is end 1 of the BUT, `-S` where it is end 2, lanes `row.flip`; `0.0`
+/// in the other lanes): the AVX-512 step's `sum_but` (which proves the bits) four lanes at a
+/// time, its masked operations by the masks of [`lanes`].
+///
+/// In each half of a row: `t = d + S`, `g = K t + Z (v - vj)`, set to `+0.0` (`vandnpd`) in the
+/// BUT lanes out of contact: where `t`, its sign flipped in the lanes of `row.flip`, is not `> 0`
+/// (NaN included). The add is not masked: in the other lanes `S` is `+0.0`, and `d + 0.0` is `d`
+/// but where `d` is `-0.0`, whose `+0.0` changes the sign of a zero product `K d` at most; then
+/// `g` is the damper's product (the same bits) or a zero, and subtracting a zero of either sign
+/// from `F` leaves it as it was (`F` is never `-0.0`: the module documentation). A row with no
+/// BUT lane computes [`sum`]'s terms when `SKIP` (the same bits: `t` would be `d` again, and no
+/// lane out of contact). Every lane of this step's networks has a spring and a damper (a REF,
+/// a BUT, or padding, whose `g` is a zero: the module documentation).
+///
+/// # Safety
+/// As [`sum`], and `ts` has an item for each row.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn sum_but<'p, const SKIP: bool>(
+    rows: &[Row],
+    params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+    ts: &[[f64; LANES]],
+    base: *const u8,
+    x: [__m256d; 2],
+    v: [__m256d; 2],
+) -> [__m256d; 2] {
+    assert!(ts.len() == rows.len());
+    let sign = _mm256_set1_pd(-0.0);
+    let zero = _mm256_setzero_pd();
+    let mut f = [_mm256_setzero_pd(); 2];
+    for ((row, [kr, zr]), s) in rows.iter().zip(params).zip(ts) {
+        // SAFETY: the caller's promise.
+        let (xj, vj) = unsafe { pairs(base, &row.at) };
+        for h in 0..2 {
+            // SAFETY: four `f64` each, lanes `4 h..4 h + 4` of eight.
+            let (kk, zz, s) = unsafe {
+                (
+                    _mm256_loadu_pd(kr.as_ptr().add(HALF * h)),
+                    _mm256_loadu_pd(zr.as_ptr().add(HALF * h)),
+                    _mm256_loadu_pd(s.as_ptr().add(HALF * h)),
+                )
+            };
+            let d = _mm256_sub_pd(x[h], xj[h]);
+            let damper = _mm256_mul_pd(zz, _mm256_sub_pd(v[h], vj[h]));
+            let g = if SKIP && row.b == 0 {
+                _mm256_add_pd(_mm256_mul_pd(kk, d), damper)
+            } else {
+                let t = _mm256_add_pd(d, s);
+                let u = _mm256_xor_pd(t, _mm256_and_pd(lanes(row.flip, h), sign));
+                let off = _mm256_and_pd(_mm256_cmp_pd::<_CMP_NGT_UQ>(u, zero), lanes(row.b, h));
+                _mm256_andnot_pd(off, _mm256_add_pd(_mm256_mul_pd(kk, t), damper))
+            };
+            f[h] = _mm256_sub_pd(f[h], g);
+        }
+    }
+    f
+}
+
+/// [`sum`] for rows whose lanes `row.b` have LNL terms of the pair `c`, those of `row.flip` where
+/// the lane's MAS is the link's end 2: the AVX-512 step's `sum_lnl` (which proves the bits) four
+/// lanes at a time, its masked moves `vblendvpd` and `vandpd` by the masks of [`lanes`].
+///
+/// In each half of a row: `d = x - xj`, `dv = v - vj`; where the half has an LNL lane, the
+/// curves' force `LK(d) + LZ(dv)` of the operands with their sign flipped in the lanes of
+/// `row.flip` (`vxorpd` with the mask's sign bits), flipped back; `g` is that force in the LNL
+/// lanes, and elsewhere the REF term `K d + Z dv` (a padding lane's is a zero, the module
+/// documentation's argument), or `+0.0` in a row with no REF lane unless `full_rows` (a padding
+/// lane's `g` is `+0.0`: `vandpd` of the force with the LNL lanes' mask); `F - g`. A row's LNL
+/// lanes read no `K` or `Z` (whatever the row holds there, the force replaces the product).
+///
+/// # Safety
+/// As [`sum`].
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn sum_lnl<'p, const A: usize, const B: usize>(
+    c: &Curves4<A, B>,
+    rows: &[Row],
+    params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+    base: *const u8,
+    x: [__m256d; 2],
+    v: [__m256d; 2],
+) -> [__m256d; 2] {
+    let sign = _mm256_set1_pd(-0.0);
+    let mut f = [_mm256_setzero_pd(); 2];
+    for (row, [kr, zr]) in rows.iter().zip(params) {
+        // SAFETY: the caller's promise.
+        let (xj, vj) = unsafe { pairs(base, &row.at) };
+        let full = c.full_rows || (row.k | row.z) != 0;
+        for h in 0..2 {
+            let d = _mm256_sub_pd(x[h], xj[h]);
+            let dv = _mm256_sub_pd(v[h], vj[h]);
+            let lnls = lanes(row.b, h);
+            let lnl = if (row.b >> (HALF * h)) & 15 != 0 {
+                let flip = _mm256_and_pd(lanes(row.flip, h), sign);
+                let (d, dv) = (_mm256_xor_pd(d, flip), _mm256_xor_pd(dv, flip));
+                // SAFETY: the CPU has AVX2 (the caller's promise), which `V4` needs.
+                let force = unsafe { c.k.eval(V4(d)).add(c.z.eval(V4(dv))).0 };
+                _mm256_xor_pd(force, flip)
+            } else {
+                _mm256_setzero_pd()
+            };
+            let g = if full {
+                // SAFETY: four `f64` each, lanes `4 h..4 h + 4` of eight.
+                let (kk, zz) = unsafe {
+                    (
+                        _mm256_loadu_pd(kr.as_ptr().add(HALF * h)),
+                        _mm256_loadu_pd(zr.as_ptr().add(HALF * h)),
+                    )
+                };
+                let spring = _mm256_mul_pd(kk, d);
+                let damper = _mm256_mul_pd(zz, dv);
+                _mm256_blendv_pd(_mm256_add_pd(spring, damper), lnl, lnls)
+            } else {
+                _mm256_and_pd(lnl, lnls)
+            };
+            f[h] = _mm256_sub_pd(f[h], g);
+        }
+    }
+    f
 }
 
 /// `F(n)` of the eight lanes of a group, as two vectors: from `+0.0`, `F - g` for each of its
