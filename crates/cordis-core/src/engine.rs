@@ -1407,11 +1407,11 @@ impl Kernel {
     /// reference's bits.
     /// A network without locality (one that takes the compact step, whose links are scattered,
     /// or whose links and MAS are mostly read through index lists) also gets the pull step
-    /// (`engine/pull.rs`) when the CPU has AVX-512 and its links are RES, FRO, REF and BUT, or
-    /// RES, FRO, REF and LNL of one pair of curves (with AVX2 only, when every link is a REF or a
-    /// BUT, or a REF or an LNL of one pair of at most 16 points): [`Engine::process`] then takes it, on
-    /// one thread or on the pool's
-    /// (`pull::PullJob`). Membranes, each of one
+    /// (`engine/pull.rs`) when the CPU has AVX-512 and its links are RES, FRO, REF, BUT and LNL
+    /// whose curves the pull step takes (`pull::Pull::new` says which), or when the CPU has AVX2
+    /// and every link is a REF or a BUT, or a REF or an LNL of one pair of at most 16 points:
+    /// [`Engine::process`] then takes it, on one thread or on the pool's (`pull::PullJob`).
+    /// Membranes, each of one
     /// REF law, their borders fixed or free, and strings, alone or with at most half as much
     /// around them, get the grid step instead when the CPU has AVX-512 or AVX2 (`engine/grid.rs`,
     /// `grid::GridJob`), which keeps every force in registers; their network is stored with its

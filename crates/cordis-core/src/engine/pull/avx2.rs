@@ -3,12 +3,12 @@
 //!
 //! AVX2 has no mask registers, and the pull step's masks (a term's absent spring or damper, a
 //! padding term) cost more to build from bits than a REF term's arithmetic. So this step takes
-//! networks of REF links, where no term lacks a product, with BUT links ([`Buts4`]) or LNL links of
-//! one pair of curves of at most 16 points ([`Curves4`]), and computes the padding terms in full: a padding
-//! term names the lane's own MAS, `g = K (x - x) + Z (v - v)`, with the row's `K` and `Z` (those
-//! of the network when every link has the same, `0.0` otherwise). A BUT or LNL term costs more
-//! than a REF term, so there a mask is worth its load: each half of a row's BUT or LNL lanes,
-//! four bits, reads its mask from a table of sixteen ([`lanes`]).
+//! networks of REF links, where no term lacks a product, with BUT links ([`Buts4`]) or LNL links
+//! of one pair of curves of at most 16 points ([`Curves4`]), and computes the padding terms in
+//! full: a padding term names the lane's own MAS, `g = K (x - x) + Z (v - v)`, with the row's `K`
+//! and `Z` (those of the network when every link has the same, `0.0` otherwise). A BUT or LNL
+//! term costs more than a REF term, so there a mask is worth its load: each half of a row's BUT
+//! or LNL lanes, four bits, reads its mask from a table of sixteen ([`lanes`]).
 //!
 //! **Why the bits are the reference's.** The REF terms are the parent module's, operand for
 //! operand. While every position is finite, so is every `x - x`, which is `+0.0`; if `v - v` is
