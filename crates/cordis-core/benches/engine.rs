@@ -44,6 +44,8 @@
 //!   a stiffness curve of 7, 13 or 33 points (a hardening spring drawn point by point, drawn
 //!   finely, sampled from its formula); `random-lnl-long-halves N`: `random-lnl-halves` with the
 //!   first half's pair `random-lnl-long`'s (a pair of 33 points and one of 3, by region).
+//! - `random-damped N`: the `random` network with each mass tied to the ground by a FRO of
+//!   viscosity 1e-5 (air damping): rows of REF and FRO terms.
 //!
 //! `threads [N [T [KIND...]]]` times a string of N masses, a membrane of about N masses (316x316
 //! for 100,000), a `pair` of membranes of about N/2 masses each (224x224) and a random network of
@@ -65,6 +67,8 @@ const M: f64 = 1.0;
 const K: f64 = 0.1;
 const Z: f64 = 0.0001;
 const V0: f64 = 1.0;
+/// The FRO of `random-damped`'s masses to the ground (air damping).
+const AIR: f64 = 1.0e-5;
 /// BUT threshold: far beyond any elongation of these models, so the links are always active.
 const BUT_S: f64 = 1.0e3;
 /// Half-width of the LNL curves: far beyond any elongation or velocity of these models.
@@ -103,12 +107,14 @@ enum Law {
     /// `LnlHalves` with the first half's pair `LnlLong`'s (the random network only): a pair of
     /// 33 points and one of 3, by region
     LnlLongHalves,
+    /// REF links and each mass tied to the ground by a FRO (air damping; the random network only)
+    Damped,
 }
 
 impl Law {
     fn interaction(self) -> Interaction {
         match self {
-            Law::Ref | Law::Struck => Interaction::Ref { k: K, z: Z },
+            Law::Ref | Law::Struck | Law::Damped => Interaction::Ref { k: K, z: Z },
             Law::LnlMixed | Law::LnlHalves | Law::LnlStruck | Law::ButLnl => Law::Lnl.interaction(),
             Law::But => Interaction::But {
                 k: K,
@@ -522,6 +528,11 @@ fn random(n: usize, law: Law) -> Model {
     if halves {
         net.add_link(interaction, masses[0], masses[n - 1]);
     }
+    if law == Law::Damped {
+        for &m in &masses {
+            net.add_link(Interaction::Fro { z: AIR }, m, g);
+        }
+    }
     let out = masses[n / 2];
     net.add_position_output(out);
     Model {
@@ -538,6 +549,7 @@ fn random(n: usize, law: Law) -> Model {
             Law::LnlFine => format!("random_lnl_fine_N{n}"),
             Law::LnlLong => format!("random_lnl_long_N{n}"),
             Law::LnlLongHalves => format!("random_lnl_long_halves_N{n}"),
+            Law::Damped => format!("random_damped_N{n}"),
         },
         net,
         masses: n + usize::from(matches!(law, Law::Struck | Law::LnlStruck)),
@@ -639,6 +651,10 @@ impl Generic {
             let (i, j) = (map[link.a.index()], map[link.b.index()]);
             let (k, z) = match &link.law {
                 Interaction::Ref { k, z } => (*k, *z),
+                // (a RES or FRO as a REF with the other product of a zero factor: the same
+                // values, `0 dv` or `0 dx` adding a zero)
+                Interaction::Res { k } => (*k, 0.0),
+                Interaction::Fro { z } => (0.0, *z),
                 Interaction::Lnl { lk, lz } => (lk.slope(0.0), lz.slope(0.0)),
                 Interaction::But { k, z, s } => {
                     g.ci.push(i);
@@ -648,7 +664,6 @@ impl Generic {
                     g.ct.push(*s);
                     continue;
                 }
-                other => panic!("the generic baseline has no {}", other.kind()),
             };
             g.li.push(i);
             g.lj.push(j);
@@ -1389,6 +1404,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             | "random-lnl-fine"
             | "random-lnl-long"
             | "random-lnl-long-halves"
+            | "random-damped"
             | "strings" => None,
             _ => usage(),
         };
@@ -1404,6 +1420,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "random-lnl-fine" => Law::LnlFine,
             "random-lnl-long" => Law::LnlLong,
             "random-lnl-long-halves" => Law::LnlLongHalves,
+            "random-damped" => Law::Damped,
             _ => Law::Ref,
         };
         let first = args.get(i).map(String::as_str);

@@ -1409,7 +1409,7 @@ impl Kernel {
     /// or whose links and MAS are mostly read through index lists) also gets the pull step
     /// (`engine/pull.rs`) when the CPU has AVX-512 and its links are RES, FRO, REF, BUT and LNL
     /// whose curves the pull step takes (`pull::Pull::new` says which), or when the CPU has AVX2
-    /// and every link is a REF or a BUT, or a REF or an LNL of one pair of at most 16 points:
+    /// and its LNL links, if any, are of one pair of at most 16 points, without BUT links:
     /// [`Engine::process`] then takes it, on one thread or on the pool's (`pull::PullJob`).
     /// Membranes, each of one
     /// REF law, their borders fixed or free, and strings, alone or with at most half as much
@@ -4908,17 +4908,18 @@ mod tests {
     /// On a CPU with AVX2 but not AVX-512, networks of REF links take the pull step four lanes
     /// at a time (`engine/pull/avx2.rs`), and it gives the other steps' bits at every step, on
     /// one thread or two, for every inertia law, links of one `K` and `Z` or each its own, whole
-    /// and partial groups; a network with RES and FRO links keeps the other steps.
+    /// and partial groups; so do networks of RES, FRO and REF links, whose rows mask their
+    /// springs and dampers.
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_avx2_pull_step_gives_the_other_steps_bits() {
         if !std::is_x86_feature_detected!("avx2") {
             return;
         }
-        assert!(Engine::new_for(&springs(1, 40, None), Simd::Avx2)
-            .k
-            .pull
-            .is_none());
+        for (seed, n) in [(1, 16), (2, 40), (3, 123), (4, 500)] {
+            let net = springs(seed, n, None);
+            the_avx2_pull_step_gives_the_scalar_bits(&net, &format!("springs {seed}"));
+        }
         for (seed, n) in [(1, 16), (2, 43), (3, 123), (4, 500)] {
             for inertia in 0..4 {
                 for uniform in [true, false] {
@@ -4998,8 +4999,9 @@ mod tests {
     /// every link LNL or every third, rows computing their REF terms in full or not, every
     /// inertia law, whole and partial groups. So do networks of REF and BUT links
     /// (`avx2::Buts4`): every fourth link a BUT, in and out of contact, thresholds of both signs
-    /// and zero, or one BUT (a hammer's), rows computing their BUTs in full or not. Two pairs, a
-    /// pair of more than 16 points, BUTs with LNLs, or RES and FRO links keep the other steps.
+    /// and zero, or one BUT (a hammer's), rows computing their BUTs in full or not. Both kinds
+    /// among RES, FRO and REF links too (their springs and dampers masked). Two pairs, a pair of
+    /// more than 16 points, or BUTs with LNLs keep the other steps.
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_avx2_pull_step_takes_but_and_lnl_networks() {
@@ -5038,8 +5040,26 @@ mod tests {
             }
             the_avx2_pull_step_gives_the_scalar_bits(&net, &what);
             seen_full[usize::from(toggled_gives_the_scalar_bits(&net, &what))] = true;
+            // (and among RES, FRO and REF links, with a CEL and an ENX at their ends)
+            let net = but_springs(seed, n, every);
+            the_avx2_pull_step_gives_the_scalar_bits(&net, &format!("{what}, springs"));
+            toggled_gives_the_scalar_bits(&net, &what);
         }
         assert_eq!(seen_full, [true, true]);
+        // (LNL networks of one pair among RES, FRO and REF links: `lnl_springs`'s mixes 0, 1, 2,
+        // 4 and 6)
+        for (seed, n, mix) in [
+            (11, 16, 0),
+            (12, 123, 1),
+            (13, 500, 2),
+            (14, 43, 4),
+            (15, 500, 6),
+        ] {
+            let what = format!("LNL springs {seed}, mix {mix}");
+            let net = lnl_springs(seed, n, mix);
+            the_avx2_pull_step_gives_the_scalar_bits(&net, &what);
+            toggled_gives_the_scalar_bits(&net, &what);
+        }
         let [four, _, _, jump] = lnl_pairs();
         let [drawn, _, fine] = drawn_pairs();
         let zero = Interaction::Lnl {
@@ -5061,15 +5081,13 @@ mod tests {
             }
         }
         assert_eq!(seen_full, [true, true]);
-        // refused: two pairs, a pair of more than 16 points, BUTs with LNLs, RES and FRO links
+        // refused: two pairs, a pair of more than 16 points, BUTs with LNLs
         let mut two = lnl_ref_springs(1, 40, 0, &four, 2);
         two.links[4].law = lnl_pairs()[1].clone();
         let long = lnl_ref_springs(1, 40, 0, &sampled_pair(), 2);
         let mut but = lnl_ref_springs(1, 40, 0, &four, 2);
         but.links[3].law = but_of(3);
-        let mut res = lnl_ref_springs(1, 40, 0, &four, 2);
-        res.links[3].law = Interaction::Res { k: 0.03 };
-        for net in [two, long, but, res] {
+        for net in [two, long, but] {
             assert!(Engine::new_for(&net, Simd::Avx2).k.pull.is_none());
             assert!(Avx512::detect().is_none() || Engine::new(&net).k.pull.is_some());
         }

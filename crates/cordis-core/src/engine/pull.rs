@@ -50,8 +50,8 @@
 //! network's pair when it is the only one; among others, in its own runs of groups, and as one
 //! of the table's pairs ([`LONGS`], [`long_forces`]). The loads and shuffles are AVX-512 (the
 //! CPU's proof is an [`Avx512`] token). A CPU with AVX2 but not AVX-512 takes the same rows four
-//! lanes at a time ([`avx2`]), on networks of REF links with BUT links or with LNL links of one
-//! pair of curves of at most 16 points; without either the network keeps the compact or gather
+//! lanes at a time ([`avx2`]), on networks whose LNL links, if any, are of one pair of curves of
+//! at most 16 points, without BUT links; without either the network keeps the compact or gather
 //! step.
 //!
 //! CEL (few in practice) pull their terms one at a time with the same expressions; ENX read
@@ -188,6 +188,9 @@ pub(super) struct Pull {
     /// Whether the network has several pairs (long ones among them or not): then each row reads
     /// its own ([`CurveTable`], [`Pull::runs`]).
     several: bool,
+    /// Whether the network has RES or FRO links, whose rows the AVX2 step computes with the
+    /// masks of their springs and dampers (`avx2::products`; the AVX-512 step always masks).
+    masked: bool,
     /// With several pairs: each pair of at most 16 points padded to the most points of any
     /// ([`ExactPair::write`]), one after another; else empty.
     table: Vec<f64>,
@@ -224,8 +227,8 @@ impl Pull {
     /// network's LNL curves evaluate eight at a time ([`ExactCurve::widens`],
     /// [`AnyPair::widens`]), those of at most 16 points pad to one point count
     /// ([`ExactPair::padded`]), and the pairs do not mix in most rows; or it is compiled for AVX2 and
-    /// every link is a REF and a BUT, or a REF and an LNL of one pair of curves of at most 16
-    /// points ([`avx2`]); and there are at least [`PULL_MIN`] MAS.
+    /// its LNL links, if it has any, are of one pair of curves of at most 16 points, without BUT
+    /// links ([`avx2`]); and there are at least [`PULL_MIN`] MAS.
     pub(super) fn new(k: &Kernel) -> Option<Pull> {
         let isa = match k.simd {
             #[cfg(target_arch = "x86_64")]
@@ -241,7 +244,7 @@ impl Pull {
         for run in &k.whole.runs {
             let pulled = match isa {
                 Isa::Avx512(_) => true,
-                Isa::Avx2 => matches!(run.law, Law::Ref | Law::But | Law::Lnl),
+                Isa::Avx2 => true,
             };
             if !pulled {
                 return None;
@@ -359,6 +362,7 @@ impl Pull {
             pairs,
             longs,
             several,
+            masked: law.iter().any(|&l| matches!(l, Law::Res | Law::Fro)),
             table,
             row_curves: Vec::new(),
             parts: Vec::new(),

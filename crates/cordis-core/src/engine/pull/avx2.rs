@@ -2,13 +2,15 @@
 //! step (see the parent module), each group's eight lanes as two vectors of four.
 //!
 //! AVX2 has no mask registers, and the pull step's masks (a term's absent spring or damper, a
-//! padding term) cost more to build from bits than a REF term's arithmetic. So this step takes
-//! networks of REF links, where no term lacks a product, with BUT links ([`Buts4`]) or LNL links
-//! of one pair of curves of at most 16 points ([`Curves4`]), and computes the padding terms in
-//! full: a padding term names the lane's own MAS, `g = K (x - x) + Z (v - v)`, with the row's `K`
-//! and `Z` (those of the network when every link has the same, `0.0` otherwise). A BUT or LNL
-//! term costs more than a REF term, so there a mask is worth its load: each half of a row's BUT
-//! or LNL lanes, four bits, reads its mask from a table of sixteen ([`lanes`]).
+//! padding term) cost more to build from bits than a REF term's arithmetic. So a network of REF
+//! links, where no term lacks a product, and with BUT links ([`Buts4`]) or LNL links of one pair
+//! of curves of at most 16 points ([`Curves4`]), computes its padding terms in full: a padding
+//! term names the lane's own MAS, `g = K (x - x) + Z (v - v)`, with the row's `K` and `Z` (those
+//! of the network when every link has the same, `0.0` otherwise). Masks are loaded only where
+//! they are needed, each half of a row's lanes of a kind, four bits, from a table of sixteen
+//! ([`lanes`]): the BUT or LNL lanes, whose terms cost more than a REF term, and, in a network
+//! with RES or FRO links (`MASKED`), the lanes with a spring and those with a damper, whose
+//! products are masked as the AVX-512 step masks them (padding lanes then have neither: `+0.0`).
 //!
 //! **Why the bits are the reference's.** The REF terms are the parent module's, operand for
 //! operand. While every position is finite, so is every `x - x`, which is `+0.0`; if `v - v` is
@@ -32,6 +34,10 @@ use crate::wide::{Vector, V4};
 
 /// Lanes of an AVX2 vector of `f64`.
 const HALF: usize = LANES / 2;
+
+/// Whether the masks of a row's springs and dampers are applied ([`products`]): the network has
+/// RES or FRO links.
+const MASKED: bool = true;
 
 impl Pull {
     /// The MAS, group by group: the whole groups compiled for the kernel's inertias, the last
@@ -64,13 +70,22 @@ impl Pull {
                 next,
                 pn,
             }),
-            None if !self.thresholds.is_empty() && self.full_rows => {
-                self.groups_avx2_with(Buts4::<false>, k, n, gr, cur, prev, pc, &params, next, pn)
+            None => {
+                macro_rules! with {
+                    ($terms:expr) => {
+                        self.groups_avx2_with($terms, k, n, gr, cur, prev, pc, &params, next, pn)
+                    };
+                }
+                let buts = !self.thresholds.is_empty();
+                match (buts, self.full_rows, self.masked) {
+                    (true, true, false) => with!(Buts4::<false, false>),
+                    (true, false, false) => with!(Buts4::<true, false>),
+                    (true, true, MASKED) => with!(Buts4::<false, MASKED>),
+                    (true, false, MASKED) => with!(Buts4::<true, MASKED>),
+                    (false, _, false) => with!(Refs::<false>),
+                    (false, _, MASKED) => with!(Refs::<MASKED>),
+                }
             }
-            None if !self.thresholds.is_empty() => {
-                self.groups_avx2_with(Buts4::<true>, k, n, gr, cur, prev, pc, &params, next, pn)
-            }
-            None => self.groups_avx2_with(Refs, k, n, gr, cur, prev, pc, &params, next, pn),
         }
     }
 
@@ -272,9 +287,15 @@ impl Pull {
                     if if end2 { t < 0.0 } else { t > 0.0 } {
                         f -= kr[i] * t + zr[i] * (v - vj);
                     }
-                } else if row.k & (1 << i) != 0 {
-                    f -= kr[i] * (x - xj) + zr[i] * (v - vj);
-                } // (else padding: every other term of this step's networks is a REF)
+                } else {
+                    // (a RES, FRO or REF, as the CEL's; neither product: padding)
+                    f -= match (row.k & (1 << i) != 0, row.z & (1 << i) != 0) {
+                        (true, true) => kr[i] * (x - xj) + zr[i] * (v - vj),
+                        (true, false) => kr[i] * (x - xj),
+                        (false, true) => zr[i] * (v - vj),
+                        (false, false) => continue,
+                    };
+                }
             }
             for &(_, e) in inputs.iter().filter(|&&(l, _)| l as usize == i) {
                 f += k.enf[e as usize].at(n);
@@ -311,11 +332,11 @@ trait Terms4: Copy {
     ) -> [__m256d; 2];
 }
 
-/// REF terms ([`sum`]).
+/// REF terms, or RES, FRO and REF terms when `M` ([`sum`]).
 #[derive(Clone, Copy)]
-struct Refs;
+struct Refs<const M: bool>;
 
-impl Terms4 for Refs {
+impl<const M: bool> Terms4 for Refs<M> {
     #[inline(always)]
     unsafe fn sum<'p>(
         self,
@@ -327,16 +348,16 @@ impl Terms4 for Refs {
         v: [__m256d; 2],
     ) -> [__m256d; 2] {
         // SAFETY: the caller's promise.
-        unsafe { sum(&pull.rows[rows], params, base, x, v) }
+        unsafe { sum::<M>(&pull.rows[rows], params, base, x, v) }
     }
 }
 
-/// REF and BUT terms ([`sum_but`]; BUTs only in the rows that have one when `SKIP`, that is
-/// when not `Pull::full_rows`).
+/// REF and BUT terms, and RES and FRO terms when `M` ([`sum_but`]; BUTs only in the rows that
+/// have one when `SKIP`, that is when not `Pull::full_rows`).
 #[derive(Clone, Copy)]
-struct Buts4<const SKIP: bool>;
+struct Buts4<const SKIP: bool, const M: bool>;
 
-impl<const SKIP: bool> Terms4 for Buts4<SKIP> {
+impl<const SKIP: bool, const M: bool> Terms4 for Buts4<SKIP, M> {
     #[inline(always)]
     unsafe fn sum<'p>(
         self,
@@ -349,7 +370,7 @@ impl<const SKIP: bool> Terms4 for Buts4<SKIP> {
     ) -> [__m256d; 2] {
         let ts = &pull.thresholds[rows.clone()];
         // SAFETY: the caller's promise; `ts` has a row of thresholds for each row (`Pull::new`).
-        unsafe { sum_but::<SKIP>(&pull.rows[rows], params, ts, base, x, v) }
+        unsafe { sum_but::<SKIP, M>(&pull.rows[rows], params, ts, base, x, v) }
     }
 }
 
@@ -360,6 +381,8 @@ struct Curves4<const A: usize, const B: usize> {
     k: WideCurve<V4, A>,
     z: WideCurve<V4, B>,
     full_rows: bool,
+    /// `Pull::masked` (a run-time flag, as `full_rows`: one loop per pair of point counts)
+    masked: bool,
 }
 
 impl<const A: usize, const B: usize> Terms4 for Curves4<A, B> {
@@ -418,6 +441,7 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
                 k: k.wide::<V4>(),
                 z: z.wide::<V4>(),
                 full_rows: pull.full_rows,
+                masked: pull.masked,
             };
             pull.groups_avx2_with(curves, kernel, n, gr, cur, prev, pc, params, next, pn);
         }
@@ -473,7 +497,7 @@ fn lanes(bits: u8, h: usize) -> __m256d {
 /// As [`sum`], and `ts` has an item for each row.
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn sum_but<'p, const SKIP: bool>(
+unsafe fn sum_but<'p, const SKIP: bool, const M: bool>(
     rows: &[Row],
     params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
     ts: &[[f64; LANES]],
@@ -498,14 +522,14 @@ unsafe fn sum_but<'p, const SKIP: bool>(
                 )
             };
             let d = _mm256_sub_pd(x[h], xj[h]);
-            let damper = _mm256_mul_pd(zz, _mm256_sub_pd(v[h], vj[h]));
+            let dv = _mm256_sub_pd(v[h], vj[h]);
             let g = if SKIP && row.b == 0 {
-                _mm256_add_pd(_mm256_mul_pd(kk, d), damper)
+                products::<M>(row, h, kk, d, zz, dv)
             } else {
                 let t = _mm256_add_pd(d, s);
                 let u = _mm256_xor_pd(t, _mm256_and_pd(lanes(row.flip, h), sign));
                 let off = _mm256_and_pd(_mm256_cmp_pd::<_CMP_NGT_UQ>(u, zero), lanes(row.b, h));
-                _mm256_andnot_pd(off, _mm256_add_pd(_mm256_mul_pd(kk, t), damper))
+                _mm256_andnot_pd(off, products::<M>(row, h, kk, t, zz, dv))
             };
             f[h] = _mm256_sub_pd(f[h], g);
         }
@@ -564,9 +588,12 @@ unsafe fn sum_lnl<'p, const A: usize, const B: usize>(
                         _mm256_loadu_pd(zr.as_ptr().add(HALF * h)),
                     )
                 };
-                let spring = _mm256_mul_pd(kk, d);
-                let damper = _mm256_mul_pd(zz, dv);
-                _mm256_blendv_pd(_mm256_add_pd(spring, damper), lnl, lnls)
+                let terms = if c.masked {
+                    products::<MASKED>(row, h, kk, d, zz, dv)
+                } else {
+                    products::<false>(row, h, kk, d, zz, dv)
+                };
+                _mm256_blendv_pd(terms, lnl, lnls)
             } else {
                 _mm256_and_pd(lnl, lnls)
             };
@@ -574,6 +601,28 @@ unsafe fn sum_lnl<'p, const A: usize, const B: usize>(
         }
     }
     f
+}
+
+/// `K d + Z dv` in half `h` of `row` (lanes `4 h..4 h + 4`), each product set to `+0.0` (`vandpd`)
+/// in the lanes without a spring (`row.k`) or a damper (`row.z`) when `M`: the AVX-512 step's
+/// `maskz_mul`s, the same bits (and no `0 x inf` where the reference has no such product).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn products<const M: bool>(
+    row: &Row,
+    h: usize,
+    kk: __m256d,
+    d: __m256d,
+    zz: __m256d,
+    dv: __m256d,
+) -> __m256d {
+    let (spring, damper) = (_mm256_mul_pd(kk, d), _mm256_mul_pd(zz, dv));
+    if M {
+        let spring = _mm256_and_pd(spring, lanes(row.k, h));
+        _mm256_add_pd(spring, _mm256_and_pd(damper, lanes(row.z, h)))
+    } else {
+        _mm256_add_pd(spring, damper)
+    }
 }
 
 /// `F(n)` of the eight lanes of a group, as two vectors: from `+0.0`, `F - g` for each of its
@@ -584,7 +633,7 @@ unsafe fn sum_lnl<'p, const A: usize, const B: usize>(
 /// The CPU has AVX2, and every offset of `rows` is that of a pair within the buffer.
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn sum<'p>(
+unsafe fn sum<'p, const M: bool>(
     rows: &[Row],
     params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
     base: *const u8,
@@ -603,9 +652,8 @@ unsafe fn sum<'p>(
                     _mm256_loadu_pd(zr.as_ptr().add(HALF * h)),
                 )
             };
-            let spring = _mm256_mul_pd(kk, _mm256_sub_pd(x[h], xj[h]));
-            let damper = _mm256_mul_pd(zz, _mm256_sub_pd(v[h], vj[h]));
-            f[h] = _mm256_sub_pd(f[h], _mm256_add_pd(spring, damper));
+            let (d, dv) = (_mm256_sub_pd(x[h], xj[h]), _mm256_sub_pd(v[h], vj[h]));
+            f[h] = _mm256_sub_pd(f[h], products::<M>(row, h, kk, d, zz, dv));
         }
     }
     f
