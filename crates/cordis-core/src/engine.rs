@@ -5094,9 +5094,8 @@ mod tests {
     }
 
     /// Networks of springs and dampers, with BUTs or LNLs among them, take the pull step on an
-    /// AVX-512 CPU (and only there, and not with both BUTs and LNLs, or curves that do not
-    /// evaluate eight at a time or do not pad to one point count, or pairs of curves mixed in
-    /// most rows), and it gives the bits of the compact or gather step at every step: positions, outputs, and the
+    /// AVX-512 CPU (not with curves that do not evaluate eight at a time or do not pad to one
+    /// point count, or pairs of curves mixed in most rows), and it gives the bits of the compact or gather step at every step: positions, outputs, and the
     /// link forces `link_force` reads after each block, whether `process` and `process_observed`
     /// take turns on one engine or not. The BUTs come into and out of contact, with the MAS and
     /// the CEL at either end. A BUT or LNL network's rows give the same bits whether every row
@@ -5206,7 +5205,9 @@ mod tests {
             // (whether each BUT's force has been zero, and non-zero, after a block)
             let mut seen = vec![[false; 2]; but_links.len()];
             let mut pulled = Engine::new(&net);
-            assert_eq!(pulled.k.pull.is_some(), avx512, "network {seed}");
+            // (a CPU with AVX2 alone takes some of them too:
+            // `the_avx2_pull_step_takes_but_and_lnl_networks`)
+            assert!(pulled.k.pull.is_some() || !avx512, "network {seed}");
             let mut compact = pulled.clone();
             let mut turns = pulled.clone();
             // (the rows computing the terms only some rows have the other way, every row or
