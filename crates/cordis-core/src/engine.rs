@@ -1407,10 +1407,9 @@ impl Kernel {
     /// reference's bits.
     /// A network without locality (one that takes the compact step, whose links are scattered,
     /// or whose links and MAS are mostly read through index lists) also gets the pull step
-    /// (`engine/pull.rs`) when the CPU has AVX-512 and its links are RES, FRO, REF, BUT and LNL
-    /// whose curves the pull step takes (`pull::Pull::new` says which), or when the CPU has AVX2
-    /// and its LNL links, if any, are of one pair of at most 16 points, without BUT links:
-    /// [`Engine::process`] then takes it, on one thread or on the pool's (`pull::PullJob`).
+    /// (`engine/pull.rs`) when the CPU has AVX-512 or AVX2 and its links are RES, FRO, REF, BUT
+    /// and LNL whose curves the pull step takes (`pull::Pull::new` says which): [`Engine::process`]
+    /// then takes it, on one thread or on the pool's (`pull::PullJob`).
     /// Membranes, each of one
     /// REF law, their borders fixed or free, and strings, alone or with at most half as much
     /// around them, get the grid step instead when the CPU has AVX-512 or AVX2 (`engine/grid.rs`,
@@ -5000,8 +4999,11 @@ mod tests {
     /// inertia law, whole and partial groups. So do networks of REF and BUT links
     /// (`avx2::Buts4`): every fourth link a BUT, in and out of contact, thresholds of both signs
     /// and zero, or one BUT (a hammer's), rows computing their BUTs in full or not. Both kinds
-    /// among RES, FRO and REF links too (their springs and dampers masked). Two pairs, a pair of
-    /// more than 16 points, or BUTs with LNLs keep the other steps.
+    /// among RES, FRO and REF links too (their springs and dampers masked). So do networks of
+    /// BUTs and LNLs of one pair, among REF links or among RES, FRO and REF links; and of several
+    /// pairs, short and long, by row or mixed in some rows, with a BUT among them
+    /// (`avx2::CurveTable4`, a long pair's runs by `avx2::Long4`). Long pairs alone keep the
+    /// other steps (the gather step is faster).
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_avx2_pull_step_takes_but_and_lnl_networks() {
@@ -5081,14 +5083,79 @@ mod tests {
             }
         }
         assert_eq!(seen_full, [true, true]);
-        // refused: two pairs, a pair of more than 16 points, BUTs with LNLs
-        let mut two = lnl_ref_springs(1, 40, 0, &four, 2);
-        two.links[4].law = lnl_pairs()[1].clone();
-        let long = lnl_ref_springs(1, 40, 0, &sampled_pair(), 2);
-        let mut but = lnl_ref_springs(1, 40, 0, &four, 2);
-        but.links[3].law = but_of(3);
-        for net in [two, long, but] {
-            assert!(Engine::new_for(&net, Simd::Avx2).k.pull.is_none());
+        // (BUTs among LNLs of one pair: every fifth link that is not an LNL a BUT, or one BUT;
+        // refused, a pair of more than 16 points alone, with BUTs or not)
+        seen_full = [false; 2];
+        for (pair, long) in [(&four, false), (&sampled_pair(), true)] {
+            for (seed, n, inertia, every) in
+                [(1, 16, 0, 1), (2, 43, 1, 2), (3, 123, 2, 1), (4, 500, 3, 2)]
+            {
+                let what = format!("long {long}, network {seed}, every {every}");
+                let net = lnl_ref_springs(seed + 60, n, inertia, pair, every);
+                let mut but = net.clone();
+                for (i, link) in but.links.iter_mut().enumerate() {
+                    let lnl = matches!(link.law, Interaction::Lnl { .. });
+                    if if every == 1 {
+                        i == 3
+                    } else {
+                        !lnl && i % 5 == 0
+                    } {
+                        link.law = but_of(i);
+                    }
+                }
+                let what = format!("{what}, with BUTs");
+                if long {
+                    for net in [&net, &but] {
+                        assert!(Engine::new_for(net, Simd::Avx2).k.pull.is_none(), "{what}");
+                        assert!(Avx512::detect().is_none() || Engine::new(net).k.pull.is_some());
+                    }
+                    continue;
+                }
+                the_avx2_pull_step_gives_the_scalar_bits(&but, &what);
+                seen_full[usize::from(toggled_gives_the_scalar_bits(&but, &what))] = true;
+            }
+        }
+        assert_eq!(seen_full, [true, true]);
+        // (among RES, FRO and REF links: `but_lnl_springs`, rows of BUT, LNL, spring and damper
+        // lanes)
+        for (seed, n) in [(21, 16), (22, 123), (23, 500)] {
+            let what = format!("BUTs and LNLs among springs {seed}");
+            let net = but_lnl_springs(seed, n, false);
+            the_avx2_pull_step_gives_the_scalar_bits(&net, &what);
+            toggled_gives_the_scalar_bits(&net, &what);
+        }
+        // (several pairs, `avx2::CurveTable4`: `lnl_springs`'s mixes 3, 5, 7, 9, 10 and 11, short
+        // and long pairs in rows of one pair and rows of several, long pairs in runs of their
+        // own, `avx2::Long4`; and the same with a BUT)
+        for (seed, n, mix) in [
+            (41, 40, 3),
+            (42, 500, 3),
+            (43, 123, 5),
+            (44, 500, 7),
+            (45, 500, 9),
+            (46, 123, 10),
+            (47, 500, 11),
+        ] {
+            let what = format!("pairs {seed}, mix {mix}");
+            let net = lnl_springs(seed, n, mix);
+            the_avx2_pull_step_gives_the_scalar_bits(&net, &what);
+            toggled_gives_the_scalar_bits(&net, &what);
+            let pull = Engine::new_for(&net, Simd::Avx2).k.pull.unwrap();
+            assert!(pull.curve_pairs() + pull.long_pairs() > 1, "{what}");
+        }
+        for (seed, n) in [(49, 40), (50, 500)] {
+            let what = format!("pairs {seed} and a BUT");
+            let net = but_lnl_springs(seed, n, true);
+            the_avx2_pull_step_gives_the_scalar_bits(&net, &what);
+            toggled_gives_the_scalar_bits(&net, &what);
+        }
+        // (refused: long pairs alone, `lnl_springs`'s mixes 8 and 12)
+        for mix in [8, 12] {
+            let net = lnl_springs(48, 500, mix);
+            assert!(
+                Engine::new_for(&net, Simd::Avx2).k.pull.is_none(),
+                "mix {mix}"
+            );
             assert!(Avx512::detect().is_none() || Engine::new(&net).k.pull.is_some());
         }
     }
@@ -5720,15 +5787,28 @@ mod tests {
     /// are in runs of one pair and some are not, and the outputs, positions and link forces
     /// have the bits of the same engine reading every pair from the table, of the compact step,
     /// and of three threads, at every block. So too when one half's pair has 40 points (its runs
-    /// and its parts of rows evaluate it as it is, `Pull::longs`).
+    /// and its parts of rows evaluate it as it is, `Pull::longs`). So too, on a CPU with AVX2
+    /// but not AVX-512, the AVX2 pull step (`avx2::CurveTable4`).
     #[test]
     fn the_pull_step_sums_runs_of_one_pair_with_the_curves_in_registers() {
-        if Avx512::detect().is_none() {
-            return; // (no pull step with LNL links: `the_pull_step_gives_the_other_steps_bits`)
+        let mut isas = Vec::new();
+        if Avx512::detect().is_some() {
+            isas.push(false);
         }
-        for (seed, n, long) in [(31, 500, false), (32, 1203, false), (33, 700, true)] {
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2") {
+            isas.push(true);
+        }
+        for (avx2, (seed, n, long)) in isas
+            .into_iter()
+            .flat_map(|a| [(31, 500, false), (32, 1203, false), (33, 700, true)].map(|t| (a, t)))
+        {
             let net = lnl_halves(seed, n, long);
-            let mut pulled = Engine::new(&net);
+            let mut pulled = match avx2 {
+                #[cfg(target_arch = "x86_64")]
+                true => Engine::new_for(&net, Simd::Avx2),
+                _ => Engine::new(&net),
+            };
             let pull = pulled.k.pull.as_ref().expect("a pull step");
             let (one, table) = pull.groups_of_one_pair();
             assert_eq!(one + table, n.div_ceil(8), "network {seed}");

@@ -49,10 +49,9 @@
 //! than 16 points is evaluated as it is ([`LongCurves`], `curve.rs`'s `WideLong`): as the
 //! network's pair when it is the only one; among others, in its own runs of groups, and as one
 //! of the table's pairs ([`LONGS`], [`long_forces`]). The loads and shuffles are AVX-512 (the
-//! CPU's proof is an [`Avx512`] token). A CPU with AVX2 but not AVX-512 takes the same rows four
-//! lanes at a time ([`avx2`]), on networks whose LNL links, if any, are of one pair of curves of
-//! at most 16 points, without BUT links; without either the network keeps the compact or gather
-//! step.
+//! CPU's proof is an [`Avx512`] token). A CPU with AVX2 but not AVX-512 takes the same networks
+//! and rows four lanes at a time ([`avx2`]); without either the network keeps the compact or
+//! gather step.
 //!
 //! CEL (few in practice) pull their terms one at a time with the same expressions; ENX read
 //! their signal; SOL never change. The pair buffers are rebuilt from the positions at the start
@@ -223,12 +222,11 @@ pub(super) struct Pull {
 }
 
 impl Pull {
-    /// The pull step of `k`, if it can take one: the kernel is compiled for AVX-512, and the
-    /// network's LNL curves evaluate eight at a time ([`ExactCurve::widens`],
-    /// [`AnyPair::widens`]), those of at most 16 points pad to one point count
-    /// ([`ExactPair::padded`]), and the pairs do not mix in most rows; or it is compiled for AVX2 and
-    /// its LNL links, if it has any, are of one pair of curves of at most 16 points, without BUT
-    /// links ([`avx2`]); and there are at least [`PULL_MIN`] MAS.
+    /// The pull step of `k`, if it can take one: the kernel is compiled for AVX-512 or for AVX2
+    /// ([`avx2`]), the network's LNL curves evaluate several at a time
+    /// ([`ExactCurve::widens`], [`AnyPair::widens`]), those of at most 16 points pad to one point
+    /// count ([`ExactPair::padded`]), the pairs do not mix in most rows, and there are at least
+    /// [`PULL_MIN`] MAS.
     pub(super) fn new(k: &Kernel) -> Option<Pull> {
         let isa = match k.simd {
             #[cfg(target_arch = "x86_64")]
@@ -305,9 +303,9 @@ impl Pull {
         let (a, b) = ExactPair::shape(a, b)?;
         let mut table = Vec::new();
         let several = pairs.len() + longs.len() > 1;
-        let lnl_and_but = law.contains(&Law::Lnl) && law.contains(&Law::But);
-        if isa == Isa::Avx2 && (several || !longs.is_empty() || lnl_and_but) {
-            // (AVX2 sums one pair of at most 16 points, `avx2::Curves4`, without BUTs)
+        if isa == Isa::Avx2 && pairs.is_empty() && !longs.is_empty() {
+            // (four lanes at a time, a long pair alone ran at 0.93x the gather step: `WideLong`
+            // with `V4` searches its segments with selects; among other pairs it gains)
             return None;
         }
         let curves = match &pairs[..] {
@@ -522,6 +520,67 @@ impl Pull {
             &[]
         } else {
             &self.thresholds[rows]
+        }
+    }
+
+    /// Calls `f` on each of the [`Pull::runs`] of the groups `gr` (a network of several pairs),
+    /// with the run's pair (`None`: the table), its groups, and the items of `next` and `pn` of
+    /// their MAS (those of `gr`, from its first).
+    #[cfg(target_arch = "x86_64")]
+    fn by_runs(
+        &self,
+        k: &Kernel,
+        gr: Range<usize>,
+        mut next: &mut [f64],
+        mut pn: &mut [[f64; 2]],
+        mut f: impl FnMut(Option<u32>, Range<usize>, &mut [f64], &mut [[f64; 2]]),
+    ) {
+        let first = (self.runs).partition_point(|&(end, _)| end as usize <= gr.start);
+        let mut start = gr.start;
+        for &(end, pair) in &self.runs[first..] {
+            if start >= gr.end {
+                break;
+            }
+            let end = gr.end.min(end as usize);
+            let slots = |g: usize| (LANES * g).min(k.n_mas);
+            let (nx, rest) = std::mem::take(&mut next).split_at_mut(slots(end) - slots(start));
+            next = rest;
+            let (px, rest) = std::mem::take(&mut pn).split_at_mut(nx.len());
+            pn = rest;
+            f(pair, start..end, nx, px);
+            start = end;
+        }
+        assert!(start >= gr.end && next.is_empty() && pn.is_empty());
+    }
+
+    /// The force `LK(d) + LZ(dv)` of the pair numbered `pair` (in [`Pull::pairs`], or from
+    /// [`LONGS`] in [`Pull::longs`]), one link at a time.
+    fn pair_force(&self, pair: u32, d: f64, dv: f64) -> f64 {
+        match pair {
+            LONGS.. => self.longs[(pair - LONGS) as usize].force(d, dv),
+            _ => self.pairs[pair as usize].force(d, dv),
+        }
+    }
+
+    /// The number of the pair of LNL lane `i` of row `r` (as [`Pull::pair_force`] takes it).
+    #[cfg(target_arch = "x86_64")]
+    fn lane_pair(&self, r: usize, i: usize) -> u32 {
+        if !self.several {
+            return if self.pairs.is_empty() { LONGS } else { 0 };
+        }
+        let at = match self.row_curves[r] {
+            at if at & PARTS == 0 => at,
+            at => {
+                let parts = &self.parts[(at & !PARTS) as usize..];
+                let part = parts.iter().find(|&&(_, lanes)| lanes & (1 << i) != 0);
+                part.expect("an LNL lane is in a part of its row").0
+            }
+        };
+        // (a table position: pair `j` is at `3 (a + b) j`, `a` and `b` the table's point counts)
+        match (at, self.curves.map(|c| c.counts())) {
+            (LONGS.., _) => at,
+            (_, Some((a, b))) => at / (3 * (a + b)) as u32,
+            (_, None) => unreachable!("a network of several pairs has the table's shape"),
         }
     }
 
@@ -821,14 +880,14 @@ impl Pull {
                     }
                     CelTerm::Lnl(j, end2, pair) => {
                         let [xj, vj] = pc[j as usize];
-                        let force = |d: f64, dv: f64| match pair {
-                            LONGS.. => self.longs[(pair - LONGS) as usize].force(d, dv),
-                            _ => self.pairs[pair as usize].force(d, dv),
-                        };
                         // (the reference's `d` and `v` and force, negated from end 2: see
                         // `sum_lnl`)
                         let (d, dv) = (x - xj, v - vj);
-                        f -= if end2 { -force(-d, -dv) } else { force(d, dv) };
+                        f -= if end2 {
+                            -self.pair_force(pair, -d, -dv)
+                        } else {
+                            self.pair_force(pair, d, dv)
+                        };
                     }
                     CelTerm::Input(i) => f += k.enf[i as usize].at(n),
                 }
@@ -1459,40 +1518,19 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
                     full_rows,
                     longs: &pull.longs,
                 };
-                let first = pull
-                    .runs
-                    .partition_point(|&(end, _)| end as usize <= gr.start);
-                let (mut next, mut pn, mut start) = (next, pn, gr.start);
-                for &(end, pair) in &pull.runs[first..] {
-                    if start >= gr.end {
-                        break;
+                pull.by_runs(kernel, gr, next, pn, |pair, groups, nx, px| match pair {
+                    Some(at @ LONGS..) => {
+                        let long = &pull.longs[(at - LONGS) as usize];
+                        let curves = LongCurves::new(long, full_rows);
+                        pull.groups_with(curves, kernel, n, groups, prev, pc, params, nx, px);
                     }
-                    let end = gr.end.min(end as usize);
-                    let slots = |g: usize| (LANES * g).min(kernel.n_mas);
-                    let (nx, rest) =
-                        std::mem::take(&mut next).split_at_mut(slots(end) - slots(start));
-                    next = rest;
-                    let (px, rest) = std::mem::take(&mut pn).split_at_mut(nx.len());
-                    pn = rest;
-                    let groups = start..end;
-                    match pair {
-                        Some(at @ LONGS..) => {
-                            let long = &pull.longs[(at - LONGS) as usize];
-                            let curves = LongCurves::new(long, full_rows);
-                            pull.groups_with(curves, kernel, n, groups, prev, pc, params, nx, px);
-                        }
-                        Some(at) => {
-                            let (k, z) = read_pair::<A, B>(&pull.table, at);
-                            let curves = Curves::new(k, z, full_rows);
-                            pull.groups_with(curves, kernel, n, groups, prev, pc, params, nx, px);
-                        }
-                        None => {
-                            pull.groups_with(table, kernel, n, groups, prev, pc, params, nx, px)
-                        }
+                    Some(at) => {
+                        let (k, z) = read_pair::<A, B>(&pull.table, at);
+                        let curves = Curves::new(k, z, full_rows);
+                        pull.groups_with(curves, kernel, n, groups, prev, pc, params, nx, px);
                     }
-                    start = end;
-                }
-                assert!(start >= gr.end && next.is_empty() && pn.is_empty());
+                    None => pull.groups_with(table, kernel, n, groups, prev, pc, params, nx, px),
+                });
             }
         }
     }

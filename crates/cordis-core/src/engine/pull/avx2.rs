@@ -3,8 +3,8 @@
 //!
 //! AVX2 has no mask registers, and the pull step's masks (a term's absent spring or damper, a
 //! padding term) cost more to build from bits than a REF term's arithmetic. So a network of REF
-//! links, where no term lacks a product, and with BUT links ([`Buts4`]) or LNL links of one pair
-//! of curves of at most 16 points ([`Curves4`]), computes its padding terms in full: a padding
+//! links, where no term lacks a product, and with BUT links ([`Buts4`]), LNL links ([`Curves4`]
+//! of one pair, [`CurveTable4`] of several) or both, computes its padding terms in full: a padding
 //! term names the lane's own MAS, `g = K (x - x) + Z (v - v)`, with the row's `K` and `Z` (those
 //! of the network when every link has the same, `0.0` otherwise). Masks are loaded only where
 //! they are needed, each half of a row's lanes of a kind, four bits, from a table of sixteen
@@ -27,8 +27,10 @@ use std::arch::x86_64::*;
 use std::hint::black_box;
 use std::ops::Range;
 
-use super::{split_whole, Kernel, MasLaw, Pull, Row, LANES};
-use crate::curve::{ExactCurve, WideCurve};
+use super::{
+    read_pair, split_whole, AnyPair, Kernel, MasLaw, Pull, Row, LANES, LONGS, NO_LNL, PARTS,
+};
+use crate::curve::{ExactCurve, WideCurve, WideLong};
 use crate::engine::{by_div, by_inv, PairFn};
 use crate::wide::{Vector, V4};
 
@@ -71,6 +73,8 @@ impl Pull {
                 pn,
             }),
             None => {
+                // (a long pair alone keeps the gather step on AVX2: `Pull::new`)
+                assert!(self.longs.is_empty());
                 macro_rules! with {
                     ($terms:expr) => {
                         self.groups_avx2_with($terms, k, n, gr, cur, prev, pc, &params, next, pn)
@@ -273,15 +277,17 @@ impl Pull {
                 let row = &self.rows[r];
                 let [xj, vj] = pc[row.at[i] as usize / 16];
                 let end2 = row.flip & (1 << i) != 0;
-                if row.b & (1 << i) != 0 && self.thresholds.is_empty() {
-                    let pair = self.curves.as_ref().expect("an LNL network has its pair");
+                let (b, spring) = (row.b & (1 << i) != 0, row.k & (1 << i) != 0);
+                if b && !spring {
+                    // (an LNL: a BUT lane has a spring, an LNL lane none)
+                    let pair = self.lane_pair(r, i);
                     let (d, dv) = (x - xj, v - vj);
                     f -= if end2 {
-                        -pair.force(-d, -dv)
+                        -self.pair_force(pair, -d, -dv)
                     } else {
-                        pair.force(d, dv)
+                        self.pair_force(pair, d, dv)
                     };
-                } else if row.b & (1 << i) != 0 {
+                } else if b {
                     // (a BUT, as the CEL's: `t` and the contact test from the lane's side)
                     let t = (x - xj) + self.thresholds[r][i];
                     if if end2 { t < 0.0 } else { t > 0.0 } {
@@ -374,18 +380,18 @@ impl<const SKIP: bool, const M: bool> Terms4 for Buts4<SKIP, M> {
     }
 }
 
-/// LNL terms of one pair of curves of `A` and `B` points, four lanes at a time, and REF terms
-/// ([`sum_lnl`]; in every row when `full_rows`, else in the rows that have them).
+/// LNL terms of one pair of curves `c`, four lanes at a time, and REF terms, RES and FRO terms
+/// when `masked`, BUT terms when the network has them ([`sum_lnl`]; in every row when
+/// `full_rows`, else in the rows that have them).
 #[derive(Clone, Copy)]
-struct Curves4<const A: usize, const B: usize> {
-    k: WideCurve<V4, A>,
-    z: WideCurve<V4, B>,
+struct Curves4<C: Forces4> {
+    c: C,
     full_rows: bool,
     /// `Pull::masked` (a run-time flag, as `full_rows`: one loop per pair of point counts)
     masked: bool,
 }
 
-impl<const A: usize, const B: usize> Terms4 for Curves4<A, B> {
+impl<C: Forces4 + Copy> Terms4 for Curves4<C> {
     #[inline(always)]
     unsafe fn sum<'p>(
         self,
@@ -396,13 +402,185 @@ impl<const A: usize, const B: usize> Terms4 for Curves4<A, B> {
         x: [__m256d; 2],
         v: [__m256d; 2],
     ) -> [__m256d; 2] {
-        // SAFETY: the caller's promise.
-        unsafe { sum_lnl(&self, &pull.rows[rows], params, base, x, v) }
+        let ts = pull.row_thresholds(rows.clone());
+        // SAFETY: the caller's promise; `ts` is empty or has a row for each row (`Pull::new`).
+        unsafe { sum_lnl(&self, &pull.rows[rows], params, ts, base, x, v) }
     }
 }
 
-/// [`Pull::groups_avx2`] for a network of LNL links: [`Pull::groups_avx2_with`] with
-/// [`Curves4`] of the network's point counts.
+/// A pair of LNL curves evaluated four lanes at a time ([`Curves4`]).
+trait Forces4 {
+    /// The force `LK(d) + LZ(dv)` in each LNL lane of row `r` (counted from the first row the
+    /// sum was given), from the reference's operands `d` and `dv` of four of its lanes (the
+    /// `ExactPair::force` and `AnyPair::force` bits); any value in the other lanes.
+    ///
+    /// # Safety
+    /// The CPU has AVX2 and the calling function is compiled with it.
+    unsafe fn forces(&self, r: usize, h: usize, d: __m256d, dv: __m256d) -> __m256d;
+}
+
+/// A pair of at most 16 points, of `A` and `B` (the network's `Pull::curves`).
+#[derive(Clone, Copy)]
+struct Pair4<const A: usize, const B: usize> {
+    k: WideCurve<V4, A>,
+    z: WideCurve<V4, B>,
+}
+
+impl<const A: usize, const B: usize> Forces4 for Pair4<A, B> {
+    #[inline(always)]
+    unsafe fn forces(&self, _: usize, _: usize, d: __m256d, dv: __m256d) -> __m256d {
+        // SAFETY: the caller's promise (`V4`).
+        unsafe { self.k.eval(V4(d)).add(self.z.eval(V4(dv))).0 }
+    }
+}
+
+/// A pair of more than 16 points (the network's one `Pull::longs`), as the AVX-512 step's
+/// `LongCurves` evaluates it.
+#[derive(Clone, Copy)]
+struct Long4<'a> {
+    k: WideLong<'a, V4>,
+    z: WideLong<'a, V4>,
+}
+
+impl Forces4 for Long4<'_> {
+    #[inline(always)]
+    unsafe fn forces(&self, _: usize, _: usize, d: __m256d, dv: __m256d) -> __m256d {
+        // SAFETY: the caller's promise (`V4`).
+        unsafe { self.k.eval(V4(d)).add(self.z.eval(V4(dv))).0 }
+    }
+}
+
+impl<'a> Long4<'a> {
+    /// # Safety
+    /// The CPU has AVX2 (see [`V4`]).
+    #[inline(always)]
+    unsafe fn new(pair: &'a AnyPair) -> Self {
+        // SAFETY: the caller's promise.
+        unsafe {
+            Long4 {
+                k: pair.long.0.wide::<V4>(),
+                z: pair.long.1.wide::<V4>(),
+            }
+        }
+    }
+}
+
+/// LNL terms of several pairs of curves, each padded to `A` and `B` points (`Pull::table`), and
+/// the other terms, as [`Curves4`] sums them: the AVX-512 step's `CurveTable`, each row reading
+/// its pair, or its parts' pairs ([`RowCurves4`]).
+#[derive(Clone, Copy)]
+struct CurveTable4<'a, const A: usize, const B: usize> {
+    full_rows: bool,
+    masked: bool,
+    /// `Pull::longs`
+    longs: &'a [AnyPair],
+}
+
+impl<const A: usize, const B: usize> Terms4 for CurveTable4<'_, A, B> {
+    #[inline(always)]
+    unsafe fn sum<'p>(
+        self,
+        pull: &Pull,
+        rows: Range<usize>,
+        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+        base: *const u8,
+        x: [__m256d; 2],
+        v: [__m256d; 2],
+    ) -> [__m256d; 2] {
+        let curves = Curves4 {
+            c: RowCurves4::<A, B> {
+                table: &pull.table,
+                row_curves: &pull.row_curves[rows.clone()],
+                parts: &pull.parts,
+                longs: self.longs,
+            },
+            full_rows: self.full_rows,
+            masked: self.masked,
+        };
+        let ts = pull.row_thresholds(rows.clone());
+        // SAFETY: the caller's promise; `ts` is empty or has a row for each row (`Pull::new`).
+        unsafe { sum_lnl(&curves, &pull.rows[rows], params, ts, base, x, v) }
+    }
+}
+
+/// [`CurveTable4`] on the rows of one sum: `Pull::row_curves` from its first row, and the pull
+/// step's `table` and `parts` (the AVX-512 step's `RowCurves`).
+struct RowCurves4<'t, const A: usize, const B: usize> {
+    table: &'t [f64],
+    row_curves: &'t [u32],
+    parts: &'t [(u32, u8)],
+    longs: &'t [AnyPair],
+}
+
+impl<const A: usize, const B: usize> Forces4 for RowCurves4<'_, A, B> {
+    /// The row's pair, when its LNL lanes share one; else each part's pair kept in the part's
+    /// lanes of the four (the first part's everywhere, then each other part's in its lanes, a
+    /// part with none of them skipped). Each LNL lane has its own pair's force, as [`Pair4`] or
+    /// [`Long4`] computes it, from its curves padded (`ExactPair::padded`: the same bits).
+    #[inline(always)]
+    unsafe fn forces(&self, r: usize, h: usize, d: __m256d, dv: __m256d) -> __m256d {
+        let at = self.row_curves[r];
+        // SAFETY (all three): the caller's promise.
+        if at == NO_LNL {
+            return unsafe { _mm256_setzero_pd() };
+        }
+        if at & PARTS == 0 {
+            return unsafe { self.pair(at, d, dv) };
+        }
+        let mut f = unsafe { _mm256_setzero_pd() };
+        for &(pair, bits) in &self.parts[(at & !PARTS) as usize..] {
+            if bits == 0 {
+                break;
+            }
+            if (bits >> (HALF * h)) & 15 != 0 {
+                f = unsafe { _mm256_blendv_pd(f, self.pair(pair, d, dv), lanes(bits, h)) };
+            }
+        }
+        f
+    }
+}
+
+impl<const A: usize, const B: usize> RowCurves4<'_, A, B> {
+    /// The force of the pair at `at` in the table, or of the long pair `at` numbers, in every
+    /// lane (a method, not a closure: a closure is not compiled with its caller's target
+    /// features, rust-lang/rust#58279).
+    ///
+    /// # Safety
+    /// As [`Forces4::forces`].
+    #[inline(always)]
+    unsafe fn pair(&self, at: u32, d: __m256d, dv: __m256d) -> __m256d {
+        if at >= LONGS {
+            // SAFETY: the caller's promise.
+            return unsafe { long_forces4(&self.longs[(at - LONGS) as usize], d, dv) };
+        }
+        let (k, z) = read_pair::<A, B>(self.table, at);
+        // SAFETY: the caller's promise (`V4`).
+        unsafe {
+            Pair4 {
+                k: k.wide::<V4>(),
+                z: z.wide::<V4>(),
+            }
+            .forces(0, 0, d, dv)
+        }
+    }
+}
+
+/// The forces of the long pair `pair` ([`Long4`]), for a row that reads its pairs from the
+/// table (cold, and not inlined into the loop of each shape of the table, as the AVX-512 step's
+/// `long_forces`).
+///
+/// # Safety
+/// The CPU has AVX2.
+#[target_feature(enable = "avx2")]
+#[cold]
+#[inline(never)]
+unsafe fn long_forces4(pair: &AnyPair, d: __m256d, dv: __m256d) -> __m256d {
+    // SAFETY: the caller's promise.
+    unsafe { Long4::new(pair).forces(0, 0, d, dv) }
+}
+
+/// [`Pull::groups_avx2`] for a network of LNL links of one pair of at most 16 points:
+/// [`Pull::groups_avx2_with`] with [`Curves4`] of the pair's point counts.
 struct WithCurves4<'a, 'b, P> {
     pull: &'a Pull,
     k: &'a Kernel,
@@ -437,13 +615,48 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
         // SAFETY: this step runs only where `Simd::detect` found AVX2 (see `Pull::step`), which
         // `V4` and `groups_avx2_with` need.
         unsafe {
-            let curves = Curves4 {
-                k: k.wide::<V4>(),
-                z: z.wide::<V4>(),
-                full_rows: pull.full_rows,
-                masked: pull.masked,
+            let (full_rows, masked) = (pull.full_rows, pull.masked);
+            let pair4 = |k: ExactCurve<A>, z: ExactCurve<B>| Curves4 {
+                c: Pair4 {
+                    k: k.wide::<V4>(),
+                    z: z.wide::<V4>(),
+                },
+                full_rows,
+                masked,
             };
-            pull.groups_avx2_with(curves, kernel, n, gr, cur, prev, pc, params, next, pn);
+            if !pull.several {
+                let curves = pair4(k, z);
+                pull.groups_avx2_with(curves, kernel, n, gr, cur, prev, pc, params, next, pn);
+            } else {
+                // (each run of `gr`: its pair's curves, a long pair's, or the table)
+                let table = CurveTable4::<A, B> {
+                    full_rows,
+                    masked,
+                    longs: &pull.longs,
+                };
+                pull.by_runs(kernel, gr, next, pn, |pair, groups, nx, px| match pair {
+                    Some(at @ LONGS..) => {
+                        let c = Long4::new(&pull.longs[(at - LONGS) as usize]);
+                        let curves = Curves4 {
+                            c,
+                            full_rows,
+                            masked,
+                        };
+                        pull.groups_avx2_with(
+                            curves, kernel, n, groups, cur, prev, pc, params, nx, px,
+                        );
+                    }
+                    Some(at) => {
+                        let (k, z) = read_pair::<A, B>(&pull.table, at);
+                        let curves = pair4(k, z);
+                        pull.groups_avx2_with(
+                            curves, kernel, n, groups, cur, prev, pc, params, nx, px,
+                        );
+                    }
+                    None => pull
+                        .groups_avx2_with(table, kernel, n, groups, cur, prev, pc, params, nx, px),
+                });
+            }
         }
     }
 }
@@ -537,9 +750,11 @@ unsafe fn sum_but<'p, const SKIP: bool, const M: bool>(
     f
 }
 
-/// [`sum`] for rows whose lanes `row.b` have LNL terms of the pair `c`, those of `row.flip` where
-/// the lane's MAS is the link's end 2: the AVX-512 step's `sum_lnl` (which proves the bits) four
-/// lanes at a time, its masked moves `vblendvpd` and `vandpd` by the masks of [`lanes`].
+/// [`sum`] for rows whose lanes `row.b` have LNL terms of the pair `c.c`, or BUT terms where they
+/// have a spring (`row.k`: every BUT has one, no LNL has), with a threshold `ts` per row and lane
+/// when the network has BUTs (else `ts` is empty), those of `row.flip` where the lane's MAS is the
+/// link's end 2: the AVX-512 step's `sum_lnl` (which proves the bits) four lanes at a time, its
+/// masked moves `vblendvpd` and `vandpd` by the masks of [`lanes`].
 ///
 /// In each half of a row: `d = x - xj`, `dv = v - vj`; where the half has an LNL lane, the
 /// curves' force `LK(d) + LZ(dv)` of the operands with their sign flipped in the lanes of
@@ -547,38 +762,53 @@ unsafe fn sum_but<'p, const SKIP: bool, const M: bool>(
 /// lanes, and elsewhere the REF term `K d + Z dv` (a padding lane's is a zero, the module
 /// documentation's argument), or `+0.0` in a row with no REF lane unless `full_rows` (a padding
 /// lane's `g` is `+0.0`: `vandpd` of the force with the LNL lanes' mask); `F - g`. A row's LNL
-/// lanes read no `K` or `Z` (whatever the row holds there, the force replaces the product).
+/// lanes read no `K` or `Z` (whatever the row holds there, the force replaces the product). A
+/// half with a BUT lane computes [`sum_but`]'s terms, with its operations and its argument (the
+/// threshold added without a mask), before the LNL lanes take their force.
+///
+/// Inlined always, and not compiled with AVX2 as a function of its own (as the AVX-512 step's
+/// `sum_lnl`): generic in `C`, it was not inlined into `groups_avx2_with`, and the random LNL
+/// network ran at 0.81x (five A/B rounds).
 ///
 /// # Safety
-/// As [`sum`].
-#[target_feature(enable = "avx2")]
-#[inline]
-unsafe fn sum_lnl<'p, const A: usize, const B: usize>(
-    c: &Curves4<A, B>,
+/// As [`sum`], and `ts` is empty or has an item for each row.
+#[inline(always)]
+unsafe fn sum_lnl<'p, C: Forces4>(
+    c: &Curves4<C>,
     rows: &[Row],
     params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
+    ts: &[[f64; LANES]],
     base: *const u8,
     x: [__m256d; 2],
     v: [__m256d; 2],
 ) -> [__m256d; 2] {
+    let but = !ts.is_empty();
+    assert!(!but || ts.len() == rows.len());
     let sign = _mm256_set1_pd(-0.0);
-    let mut f = [_mm256_setzero_pd(); 2];
-    for (row, [kr, zr]) in rows.iter().zip(params) {
+    let zero = _mm256_setzero_pd();
+    let mut f = [zero; 2];
+    for (r, (row, [kr, zr])) in rows.iter().zip(params).enumerate() {
         // SAFETY: the caller's promise.
         let (xj, vj) = unsafe { pairs(base, &row.at) };
         let full = c.full_rows || (row.k | row.z) != 0;
+        // (the row's LNL lanes: those of `row.b` but its BUT lanes)
+        let (lnls, buts) = if but {
+            (row.b & !row.k, row.b & row.k)
+        } else {
+            (row.b, 0)
+        };
+        let has = |bits: u8, h: usize| (bits >> (HALF * h)) & 15 != 0;
         for h in 0..2 {
             let d = _mm256_sub_pd(x[h], xj[h]);
             let dv = _mm256_sub_pd(v[h], vj[h]);
-            let lnls = lanes(row.b, h);
-            let lnl = if (row.b >> (HALF * h)) & 15 != 0 {
+            let lnl_lanes = lanes(lnls, h);
+            let lnl = if has(lnls, h) {
                 let flip = _mm256_and_pd(lanes(row.flip, h), sign);
                 let (d, dv) = (_mm256_xor_pd(d, flip), _mm256_xor_pd(dv, flip));
-                // SAFETY: the CPU has AVX2 (the caller's promise), which `V4` needs.
-                let force = unsafe { c.k.eval(V4(d)).add(c.z.eval(V4(dv))).0 };
-                _mm256_xor_pd(force, flip)
+                // SAFETY: the CPU has AVX2 (the caller's promise).
+                _mm256_xor_pd(unsafe { c.c.forces(r, h, d, dv) }, flip)
             } else {
-                _mm256_setzero_pd()
+                zero
             };
             let g = if full {
                 // SAFETY: four `f64` each, lanes `4 h..4 h + 4` of eight.
@@ -588,14 +818,19 @@ unsafe fn sum_lnl<'p, const A: usize, const B: usize>(
                         _mm256_loadu_pd(zr.as_ptr().add(HALF * h)),
                     )
                 };
-                let terms = if c.masked {
-                    products::<MASKED>(row, h, kk, d, zz, dv)
+                let terms = if has(buts, h) {
+                    // SAFETY: four `f64`, lanes `4 h..4 h + 4` of eight (`ts` has row `r`).
+                    let s = unsafe { _mm256_loadu_pd(ts[r].as_ptr().add(HALF * h)) };
+                    let t = _mm256_add_pd(d, s);
+                    let u = _mm256_xor_pd(t, _mm256_and_pd(lanes(row.flip, h), sign));
+                    let off = _mm256_and_pd(_mm256_cmp_pd::<_CMP_NGT_UQ>(u, zero), lanes(buts, h));
+                    _mm256_andnot_pd(off, products_if(c.masked, row, h, kk, t, zz, dv))
                 } else {
-                    products::<false>(row, h, kk, d, zz, dv)
+                    products_if(c.masked, row, h, kk, d, zz, dv)
                 };
-                _mm256_blendv_pd(terms, lnl, lnls)
+                _mm256_blendv_pd(terms, lnl, lnl_lanes)
             } else {
-                _mm256_and_pd(lnl, lnls)
+                _mm256_and_pd(lnl, lnl_lanes)
             };
             f[h] = _mm256_sub_pd(f[h], g);
         }
@@ -622,6 +857,25 @@ fn products<const M: bool>(
         _mm256_add_pd(spring, _mm256_and_pd(damper, lanes(row.z, h)))
     } else {
         _mm256_add_pd(spring, damper)
+    }
+}
+
+/// [`products`], masked or not (a run-time flag).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn products_if(
+    masked: bool,
+    row: &Row,
+    h: usize,
+    kk: __m256d,
+    d: __m256d,
+    zz: __m256d,
+    dv: __m256d,
+) -> __m256d {
+    if masked {
+        products::<MASKED>(row, h, kk, d, zz, dv)
+    } else {
+        products::<false>(row, h, kk, d, zz, dv)
     }
 }
 
