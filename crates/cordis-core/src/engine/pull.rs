@@ -240,13 +240,6 @@ impl Pull {
         }
         let mut law = vec![Law::Ref; k.nl];
         for run in &k.whole.runs {
-            let pulled = match isa {
-                Isa::Avx512(_) => true,
-                Isa::Avx2 => true,
-            };
-            if !pulled {
-                return None;
-            }
             law[run.start..run.end].fill(run.law);
         }
         let has_k = |l: Law| matches!(l, Law::Res | Law::Ref | Law::But);
