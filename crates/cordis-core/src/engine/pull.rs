@@ -1073,8 +1073,8 @@ impl Pull {
             // SAFETY: every row's offsets are those of pairs `< nm` (asserted in `new`), and `pc`
             // has `nm` pairs (asserted in `step`); the CPU has AVX-512F, and this function is
             // compiled with it.
-            let mut f =
-                unsafe { terms.sum(self, rows.clone(), params(rows), base, x, v, (xs, vs)) };
+            let group = Group::new(rows.clone(), params(rows), base, (x, v), (xs, vs));
+            let mut f = unsafe { terms.sum(self, group) };
             let inputs = &self.enf[inputs[0] as usize..inputs[1] as usize];
             if !inputs.is_empty() {
                 let mut lanes_f = [0.0; LANES];
@@ -1137,27 +1137,58 @@ impl Pull {
     }
 }
 
+/// The `(K, Z)` of a group's rows, row by row (eight lanes each).
+#[cfg(target_arch = "x86_64")]
+trait Params<'p>: Iterator<Item = &'p [[f64; LANES]; 2]> {}
+
+#[cfg(target_arch = "x86_64")]
+impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>> Params<'p> for I {}
+
+/// What a group's sum reads: its rows (`rows` of the pull step's), their parameters `params`,
+/// `x(n)` and `v(n)` of the group's eight lanes (`V`: one vector, or two of four lanes on AVX2),
+/// and the other ends' pairs in the buffer at `base` (`perm`: on AVX-512, the `xs`, `vs` of
+/// [`pairs`]).
+#[cfg(target_arch = "x86_64")]
+struct Group<P, V, Q = ()> {
+    rows: Range<usize>,
+    params: P,
+    base: *const u8,
+    x: V,
+    v: V,
+    perm: Q,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl<P, V, Q> Group<P, V, Q> {
+    /// The group of `rows`, with `params`, `x(n)`, `v(n)` of its lanes, and the pairs at `base`.
+    #[inline(always)]
+    fn new(rows: Range<usize>, params: P, base: *const u8, (x, v): (V, V), perm: Q) -> Self {
+        Group {
+            rows,
+            params,
+            base,
+            x,
+            v,
+            perm,
+        }
+    }
+}
+
+/// [`Group`] on AVX-512.
+#[cfg(target_arch = "x86_64")]
+type Group8<P> = Group<P, __m512d, (__m512i, __m512i)>;
+
 /// The kind of terms a network's rows have, and how a group sums them: [`Springs`], [`Buts`]
 /// or [`Curves`], chosen once per step ([`Pull::groups`]).
 #[cfg(target_arch = "x86_64")]
 trait Terms: Copy {
-    /// `F(n)` of the eight lanes of a group: from `+0.0`, `F - g` for each of its rows `rows`
-    /// (see [`sum`]).
+    /// `F(n)` of the eight lanes of a group: from `+0.0`, `F - g` for each of its rows `group.rows`
+    /// of `pull` (see [`sum`]).
     ///
     /// # Safety
     /// The CPU has AVX-512F and the calling function is compiled with it; every offset of the
-    /// rows is that of a pair within the buffer at `base`.
-    #[allow(clippy::too_many_arguments)] // (the operands of `sum`)
-    unsafe fn sum<'p>(
-        self,
-        pull: &Pull,
-        rows: Range<usize>,
-        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
-        base: *const u8,
-        x: __m512d,
-        v: __m512d,
-        perm: (__m512i, __m512i),
-    ) -> __m512d;
+    /// rows is that of a pair within the buffer at `group.base`.
+    unsafe fn sum<'p>(self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d;
 }
 
 /// RES, FRO and REF terms ([`sum`]).
@@ -1267,18 +1298,9 @@ unsafe fn long_forces(pair: &AnyPair, d: __m512d, dv: __m512d) -> __m512d {
 #[cfg(target_arch = "x86_64")]
 impl Terms for LongCurves<'_> {
     #[inline(always)]
-    unsafe fn sum<'p>(
-        self,
-        pull: &Pull,
-        rows: Range<usize>,
-        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
-        base: *const u8,
-        x: __m512d,
-        v: __m512d,
-        perm: (__m512i, __m512i),
-    ) -> __m512d {
+    unsafe fn sum<'p>(self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d {
         // SAFETY: the caller's promise.
-        unsafe { sum_of_one(&self, self.full_rows, pull, rows, params, base, x, v, perm) }
+        unsafe { sum_of_one(&self, self.full_rows, pull, group) }
     }
 }
 
@@ -1344,71 +1366,37 @@ impl<const A: usize, const B: usize> RowCurves<'_, A, B> {
 #[cfg(target_arch = "x86_64")]
 impl Terms for Springs {
     #[inline(always)]
-    unsafe fn sum<'p>(
-        self,
-        pull: &Pull,
-        rows: Range<usize>,
-        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
-        base: *const u8,
-        x: __m512d,
-        v: __m512d,
-        perm: (__m512i, __m512i),
-    ) -> __m512d {
+    unsafe fn sum<'p>(self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d {
         // SAFETY: the caller's promise.
-        unsafe { sum(&pull.rows[rows], params, base, x, v, perm) }
+        unsafe { sum(&pull.rows[group.rows.clone()], group) }
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 impl<const SKIP: bool> Terms for Buts<SKIP> {
     #[inline(always)]
-    unsafe fn sum<'p>(
-        self,
-        pull: &Pull,
-        rows: Range<usize>,
-        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
-        base: *const u8,
-        x: __m512d,
-        v: __m512d,
-        perm: (__m512i, __m512i),
-    ) -> __m512d {
+    unsafe fn sum<'p>(self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d {
+        let rows = group.rows.clone();
         let ts = &pull.thresholds[rows.clone()];
         // SAFETY: the caller's promise; `ts` has a row of thresholds for each row (`new`).
-        unsafe { sum_but::<SKIP>(&pull.rows[rows], params, ts, base, x, v, perm) }
+        unsafe { sum_but::<SKIP>(&pull.rows[rows], ts, group) }
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 impl<const A: usize, const B: usize> Terms for Curves<A, B> {
     #[inline(always)]
-    unsafe fn sum<'p>(
-        self,
-        pull: &Pull,
-        rows: Range<usize>,
-        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
-        base: *const u8,
-        x: __m512d,
-        v: __m512d,
-        perm: (__m512i, __m512i),
-    ) -> __m512d {
+    unsafe fn sum<'p>(self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d {
         // SAFETY: the caller's promise.
-        unsafe { sum_of_one(&self, self.full_rows, pull, rows, params, base, x, v, perm) }
+        unsafe { sum_of_one(&self, self.full_rows, pull, group) }
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 impl<const A: usize, const B: usize> Terms for CurveTable<'_, A, B> {
     #[inline(always)]
-    unsafe fn sum<'p>(
-        self,
-        pull: &Pull,
-        rows: Range<usize>,
-        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
-        base: *const u8,
-        x: __m512d,
-        v: __m512d,
-        perm: (__m512i, __m512i),
-    ) -> __m512d {
+    unsafe fn sum<'p>(self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d {
+        let rows = group.rows.clone();
         let forces = RowCurves::<A, B> {
             table: &pull.table,
             row_curves: &pull.row_curves[rows.clone()],
@@ -1417,19 +1405,7 @@ impl<const A: usize, const B: usize> Terms for CurveTable<'_, A, B> {
         };
         let ts = pull.row_thresholds(rows.clone());
         // SAFETY: the caller's promise.
-        unsafe {
-            sum_lnl(
-                &pull.rows[rows],
-                params,
-                self.full_rows,
-                &forces,
-                ts,
-                base,
-                x,
-                v,
-                perm,
-            )
-        }
+        unsafe { sum_lnl(&pull.rows[rows], self.full_rows, &forces, ts, group) }
     }
 }
 
@@ -1536,21 +1512,16 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
 /// As [`Terms::sum`].
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-#[allow(clippy::too_many_arguments)] // (the operands of `sum`)
 unsafe fn sum_of_one<'p>(
     c: &impl LnlForces,
     full_rows: bool,
     pull: &Pull,
-    rows: Range<usize>,
-    params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
-    base: *const u8,
-    x: __m512d,
-    v: __m512d,
-    perm: (__m512i, __m512i),
+    group: Group8<impl Params<'p>>,
 ) -> __m512d {
+    let rows = group.rows.clone();
     let ts = pull.row_thresholds(rows.clone());
     // SAFETY: the caller's promise.
-    unsafe { sum_lnl(&pull.rows[rows], params, full_rows, c, ts, base, x, v, perm) }
+    unsafe { sum_lnl(&pull.rows[rows], full_rows, c, ts, group) }
 }
 
 /// [`sum`] for rows whose lanes `row.b` have LNL terms, their forces from `c` (the network's one
@@ -1585,18 +1556,14 @@ unsafe fn sum_of_one<'p>(
 /// As [`sum`].
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-#[allow(clippy::too_many_arguments)] // (the operands of `sum`)
 unsafe fn sum_lnl<'p>(
     rows: &[Row],
-    params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
     full_rows: bool,
     c: &impl LnlForces,
     ts: &[[f64; LANES]],
-    base: *const u8,
-    x: __m512d,
-    v: __m512d,
-    (xs, vs): (__m512i, __m512i),
+    group: Group8<impl Params<'p>>,
 ) -> __m512d {
+    let (x, v, (xs, vs)) = (group.x, group.v, group.perm);
     let but = !ts.is_empty();
     assert!(!but || ts.len() == rows.len());
     let sign = _mm512_set1_epi64(i64::MIN);
@@ -1611,9 +1578,9 @@ unsafe fn sum_lnl<'p>(
         ))
     };
     let mut f = _mm512_setzero_pd();
-    for (r, (row, [kr, zr])) in rows.iter().zip(params).enumerate() {
+    for (r, (row, [kr, zr])) in rows.iter().zip(group.params).enumerate() {
         // SAFETY: the caller's promise.
-        let (xj, vj) = unsafe { pairs(base, &row.at, xs, vs) };
+        let (xj, vj) = unsafe { pairs(group.base, &row.at, xs, vs) };
         let d = _mm512_sub_pd(x, xj);
         let dv = _mm512_sub_pd(v, vj);
         // (the row's LNL lanes: those of `row.b` but its BUT lanes, which have a spring; a row
@@ -1712,27 +1679,21 @@ fn split_whole<'b>(
     ([whole, part], next.split_at_mut(at), pn.split_at_mut(at))
 }
 
-/// `F(n)` of the eight lanes of a group: from `+0.0`, `F - g` for each of its `rows`, with
-/// `params` (one `(K, Z)` per row), `x(n)` and `v(n)` of the lanes `x`, `v`, and the other ends'
-/// pairs in the buffer at `base` (`xs`, `vs`: see [`pairs`]).
+/// `F(n)` of the eight lanes of a group `group`: from `+0.0`, `F - g` for each of its `rows` (the
+/// pull step's `group.rows`), with `group.params` (one `(K, Z)` per row), `x(n)` and `v(n)` of the lanes
+/// `group.x`, `group.v`, and the other ends' pairs in the buffer at `group.base` (`group.perm`: see [`pairs`]).
 ///
 /// # Safety
 /// The CPU has AVX-512F, and every offset of `rows` is that of a pair within the buffer.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[inline]
-unsafe fn sum<'p>(
-    rows: &[Row],
-    params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
-    base: *const u8,
-    x: __m512d,
-    v: __m512d,
-    (xs, vs): (__m512i, __m512i),
-) -> __m512d {
+unsafe fn sum<'p>(rows: &[Row], group: Group8<impl Params<'p>>) -> __m512d {
+    let (x, v, (xs, vs)) = (group.x, group.v, group.perm);
     let mut f = _mm512_setzero_pd();
-    for (row, [kr, zr]) in rows.iter().zip(params) {
+    for (row, [kr, zr]) in rows.iter().zip(group.params) {
         // SAFETY: the caller's promise.
-        let (xj, vj) = unsafe { pairs(base, &row.at, xs, vs) };
+        let (xj, vj) = unsafe { pairs(group.base, &row.at, xs, vs) };
         // SAFETY: eight `f64` each.
         let (kk, zz) = unsafe { (_mm512_loadu_pd(kr.as_ptr()), _mm512_loadu_pd(zr.as_ptr())) };
         let spring = _mm512_maskz_mul_pd(row.k, kk, _mm512_sub_pd(x, xj));
@@ -1767,20 +1728,17 @@ unsafe fn sum<'p>(
 #[inline]
 unsafe fn sum_but<'p, const SKIP: bool>(
     rows: &[Row],
-    params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
     ts: &[[f64; LANES]],
-    base: *const u8,
-    x: __m512d,
-    v: __m512d,
-    (xs, vs): (__m512i, __m512i),
+    group: Group8<impl Params<'p>>,
 ) -> __m512d {
+    let (x, v, (xs, vs)) = (group.x, group.v, group.perm);
     assert!(ts.len() == rows.len());
     let sign = _mm512_set1_epi64(i64::MIN);
     let zero = _mm512_setzero_pd();
     let mut f = _mm512_setzero_pd();
-    for ((row, [kr, zr]), s) in rows.iter().zip(params).zip(ts) {
+    for ((row, [kr, zr]), s) in rows.iter().zip(group.params).zip(ts) {
         // SAFETY: the caller's promise.
-        let (xj, vj) = unsafe { pairs(base, &row.at, xs, vs) };
+        let (xj, vj) = unsafe { pairs(group.base, &row.at, xs, vs) };
         // SAFETY: eight `f64` each.
         let (kk, zz) = unsafe { (_mm512_loadu_pd(kr.as_ptr()), _mm512_loadu_pd(zr.as_ptr())) };
         let d = _mm512_sub_pd(x, xj);

@@ -28,7 +28,8 @@ use std::hint::black_box;
 use std::ops::Range;
 
 use super::{
-    read_pair, split_whole, AnyPair, Kernel, MasLaw, Pull, Row, LANES, LONGS, NO_LNL, PARTS,
+    read_pair, split_whole, AnyPair, Group, Kernel, MasLaw, Params, Pull, Row, LANES, LONGS,
+    NO_LNL, PARTS,
 };
 use crate::curve::{ExactCurve, WideCurve, WideLong};
 use crate::engine::{by_div, by_inv, PairFn};
@@ -40,6 +41,9 @@ const HALF: usize = LANES / 2;
 /// Whether the masks of a row's springs and dampers are applied ([`products`]): the network has
 /// RES or FRO links.
 const MASKED: bool = true;
+
+/// [`Group`] on AVX2: `x(n)` and `v(n)` of a group's lanes as two vectors of four.
+type Group4<P> = Group<P, [__m256d; 2]>;
 
 impl Pull {
     /// The MAS, group by group: the whole groups compiled for the kernel's inertias, the last
@@ -195,7 +199,8 @@ impl Pull {
             let rows = rows[0] as usize..rows[1] as usize;
             // SAFETY: every row's offsets are those of pairs `< nm` (asserted in `new`), and `pc`
             // has `nm` pairs (asserted in `step`).
-            let mut f = unsafe { terms.sum(self, rows.clone(), params(rows), base, x, v) };
+            let group = Group::new(rows.clone(), params(rows), base, (x, v), ());
+            let mut f = unsafe { terms.sum(self, group) };
             let inputs = &self.enf[inputs[0] as usize..inputs[1] as usize];
             if !inputs.is_empty() {
                 let mut lanes_f = [0.0; LANES];
@@ -322,20 +327,12 @@ impl Pull {
 /// [`Buts4`] or [`Curves4`], chosen once per step ([`Pull::groups_avx2`]).
 trait Terms4: Copy {
     /// `F(n)` of the eight lanes of a group, as two vectors: from `+0.0`, `F - g` for each of
-    /// its rows `rows` of `pull` (see [`sum`]).
+    /// its rows `group.rows` of `pull` (see [`sum`]).
     ///
     /// # Safety
     /// The CPU has AVX2 and the calling function is compiled with it; every offset of the rows is
-    /// that of a pair within the buffer at `base`.
-    unsafe fn sum<'p>(
-        self,
-        pull: &Pull,
-        rows: Range<usize>,
-        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
-        base: *const u8,
-        x: [__m256d; 2],
-        v: [__m256d; 2],
-    ) -> [__m256d; 2];
+    /// that of a pair within the buffer at `group.base`.
+    unsafe fn sum<'p>(self, pull: &Pull, group: Group4<impl Params<'p>>) -> [__m256d; 2];
 }
 
 /// REF terms, or RES, FRO and REF terms when `M` ([`sum`]).
@@ -344,17 +341,9 @@ struct Refs<const M: bool>;
 
 impl<const M: bool> Terms4 for Refs<M> {
     #[inline(always)]
-    unsafe fn sum<'p>(
-        self,
-        pull: &Pull,
-        rows: Range<usize>,
-        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
-        base: *const u8,
-        x: [__m256d; 2],
-        v: [__m256d; 2],
-    ) -> [__m256d; 2] {
+    unsafe fn sum<'p>(self, pull: &Pull, group: Group4<impl Params<'p>>) -> [__m256d; 2] {
         // SAFETY: the caller's promise.
-        unsafe { sum::<M>(&pull.rows[rows], params, base, x, v) }
+        unsafe { sum::<M>(&pull.rows[group.rows.clone()], group) }
     }
 }
 
@@ -365,18 +354,11 @@ struct Buts4<const SKIP: bool, const M: bool>;
 
 impl<const SKIP: bool, const M: bool> Terms4 for Buts4<SKIP, M> {
     #[inline(always)]
-    unsafe fn sum<'p>(
-        self,
-        pull: &Pull,
-        rows: Range<usize>,
-        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
-        base: *const u8,
-        x: [__m256d; 2],
-        v: [__m256d; 2],
-    ) -> [__m256d; 2] {
+    unsafe fn sum<'p>(self, pull: &Pull, group: Group4<impl Params<'p>>) -> [__m256d; 2] {
+        let rows = group.rows.clone();
         let ts = &pull.thresholds[rows.clone()];
         // SAFETY: the caller's promise; `ts` has a row of thresholds for each row (`Pull::new`).
-        unsafe { sum_but::<SKIP, M>(&pull.rows[rows], params, ts, base, x, v) }
+        unsafe { sum_but::<SKIP, M>(&pull.rows[rows], ts, group) }
     }
 }
 
@@ -393,18 +375,11 @@ struct Curves4<C: Forces4> {
 
 impl<C: Forces4 + Copy> Terms4 for Curves4<C> {
     #[inline(always)]
-    unsafe fn sum<'p>(
-        self,
-        pull: &Pull,
-        rows: Range<usize>,
-        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
-        base: *const u8,
-        x: [__m256d; 2],
-        v: [__m256d; 2],
-    ) -> [__m256d; 2] {
+    unsafe fn sum<'p>(self, pull: &Pull, group: Group4<impl Params<'p>>) -> [__m256d; 2] {
+        let rows = group.rows.clone();
         let ts = pull.row_thresholds(rows.clone());
         // SAFETY: the caller's promise; `ts` is empty or has a row for each row (`Pull::new`).
-        unsafe { sum_lnl(&self, &pull.rows[rows], params, ts, base, x, v) }
+        unsafe { sum_lnl(&self, &pull.rows[rows], ts, group) }
     }
 }
 
@@ -478,15 +453,8 @@ struct CurveTable4<'a, const A: usize, const B: usize> {
 
 impl<const A: usize, const B: usize> Terms4 for CurveTable4<'_, A, B> {
     #[inline(always)]
-    unsafe fn sum<'p>(
-        self,
-        pull: &Pull,
-        rows: Range<usize>,
-        params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
-        base: *const u8,
-        x: [__m256d; 2],
-        v: [__m256d; 2],
-    ) -> [__m256d; 2] {
+    unsafe fn sum<'p>(self, pull: &Pull, group: Group4<impl Params<'p>>) -> [__m256d; 2] {
+        let rows = group.rows.clone();
         let curves = Curves4 {
             c: RowCurves4::<A, B> {
                 table: &pull.table,
@@ -499,7 +467,7 @@ impl<const A: usize, const B: usize> Terms4 for CurveTable4<'_, A, B> {
         };
         let ts = pull.row_thresholds(rows.clone());
         // SAFETY: the caller's promise; `ts` is empty or has a row for each row (`Pull::new`).
-        unsafe { sum_lnl(&curves, &pull.rows[rows], params, ts, base, x, v) }
+        unsafe { sum_lnl(&curves, &pull.rows[rows], ts, group) }
     }
 }
 
@@ -712,19 +680,17 @@ fn lanes(bits: u8, h: usize) -> __m256d {
 #[inline]
 unsafe fn sum_but<'p, const SKIP: bool, const M: bool>(
     rows: &[Row],
-    params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
     ts: &[[f64; LANES]],
-    base: *const u8,
-    x: [__m256d; 2],
-    v: [__m256d; 2],
+    group: Group4<impl Params<'p>>,
 ) -> [__m256d; 2] {
+    let (x, v) = (group.x, group.v);
     assert!(ts.len() == rows.len());
     let sign = _mm256_set1_pd(-0.0);
     let zero = _mm256_setzero_pd();
     let mut f = [_mm256_setzero_pd(); 2];
-    for ((row, [kr, zr]), s) in rows.iter().zip(params).zip(ts) {
+    for ((row, [kr, zr]), s) in rows.iter().zip(group.params).zip(ts) {
         // SAFETY: the caller's promise.
-        let (xj, vj) = unsafe { pairs(base, &row.at) };
+        let (xj, vj) = unsafe { pairs(group.base, &row.at) };
         for h in 0..2 {
             // SAFETY: four `f64` each, lanes `4 h..4 h + 4` of eight.
             let (kk, zz, s) = unsafe {
@@ -776,20 +742,18 @@ unsafe fn sum_but<'p, const SKIP: bool, const M: bool>(
 unsafe fn sum_lnl<'p, C: Forces4>(
     c: &Curves4<C>,
     rows: &[Row],
-    params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
     ts: &[[f64; LANES]],
-    base: *const u8,
-    x: [__m256d; 2],
-    v: [__m256d; 2],
+    group: Group4<impl Params<'p>>,
 ) -> [__m256d; 2] {
+    let (x, v) = (group.x, group.v);
     let but = !ts.is_empty();
     assert!(!but || ts.len() == rows.len());
     let sign = _mm256_set1_pd(-0.0);
     let zero = _mm256_setzero_pd();
     let mut f = [zero; 2];
-    for (r, (row, [kr, zr])) in rows.iter().zip(params).enumerate() {
+    for (r, (row, [kr, zr])) in rows.iter().zip(group.params).enumerate() {
         // SAFETY: the caller's promise.
-        let (xj, vj) = unsafe { pairs(base, &row.at) };
+        let (xj, vj) = unsafe { pairs(group.base, &row.at) };
         let full = c.full_rows || (row.k | row.z) != 0;
         // (the row's LNL lanes: those of `row.b` but its BUT lanes)
         let (lnls, buts) = if but {
@@ -879,25 +843,20 @@ fn products_if(
     }
 }
 
-/// `F(n)` of the eight lanes of a group, as two vectors: from `+0.0`, `F - g` for each of its
-/// `rows`, with `params` (one `(K, Z)` per row), `x(n)` and `v(n)` of the lanes `x`, `v`, and
-/// the other ends' pairs in the buffer at `base`.
+/// `F(n)` of the eight lanes of a group `group`, as two vectors: from `+0.0`, `F - g` for each of its
+/// `rows` (the pull step's `group.rows`), with `group.params` (one `(K, Z)` per row), `x(n)` and `v(n)`
+/// of the lanes `group.x`, `group.v`, and the other ends' pairs in the buffer at `group.base`.
 ///
 /// # Safety
 /// The CPU has AVX2, and every offset of `rows` is that of a pair within the buffer.
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn sum<'p, const M: bool>(
-    rows: &[Row],
-    params: impl Iterator<Item = &'p [[f64; LANES]; 2]>,
-    base: *const u8,
-    x: [__m256d; 2],
-    v: [__m256d; 2],
-) -> [__m256d; 2] {
+unsafe fn sum<'p, const M: bool>(rows: &[Row], group: Group4<impl Params<'p>>) -> [__m256d; 2] {
+    let (x, v) = (group.x, group.v);
     let mut f = [_mm256_setzero_pd(); 2];
-    for (row, [kr, zr]) in rows.iter().zip(params) {
+    for (row, [kr, zr]) in rows.iter().zip(group.params) {
         // SAFETY: the caller's promise.
-        let (xj, vj) = unsafe { pairs(base, &row.at) };
+        let (xj, vj) = unsafe { pairs(group.base, &row.at) };
         for h in 0..2 {
             // SAFETY: four `f64` each, lanes `4 h..4 h + 4` of eight.
             let (kk, zz) = unsafe {
