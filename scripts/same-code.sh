@@ -40,7 +40,8 @@ same=$(comm -12 <(cut -f1 /tmp/same-code-a.txt) <(cut -f1 /tmp/same-code-b.txt) 
 echo "functions matching: A $na, B $nb; the same machine code: $same"
 for side in A B; do
   echo "only in $side (instructions, name):"
-  if [ $side = A ]; then x=/tmp/same-code-a.txt; y=/tmp/same-code-b.txt; else x=/tmp/same-code-b.txt; y=/tmp/same-code-a.txt; fi
+  x=/tmp/same-code-a.txt; y=/tmp/same-code-b.txt
+  if [ $side = B ]; then x=/tmp/same-code-b.txt; y=/tmp/same-code-a.txt; fi
   comm -23 <(cut -f1 "$x") <(cut -f1 "$y") | grep -F -f - "$x" | cut -f2- | sort -t$'\t' -k2,2 -k1,1n \
     | sed 's/^/  /' || true
 done

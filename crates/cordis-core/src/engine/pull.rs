@@ -1682,9 +1682,10 @@ fn split_whole<'b>(
     ([whole, part], next.split_at_mut(at), pn.split_at_mut(at))
 }
 
-/// `F(n)` of the eight lanes of a group `group`: from `+0.0`, `F - g` for each of its `rows` (the
-/// pull step's `group.rows`), with `group.params` (one `(K, Z)` per row), `x(n)` and `v(n)` of the lanes
-/// `group.x`, `group.v`, and the other ends' pairs in the buffer at `group.base` (`group.perm`: see [`pairs`]).
+/// `F(n)` of the eight lanes of a group `group`: from `+0.0`, `F - g` for each of its `rows`
+/// (the pull step's `group.rows`), with `group.params` (one `(K, Z)` per row), `x(n)` and `v(n)`
+/// of the lanes `group.x`, `group.v`, and the other ends' pairs in the buffer at `group.base`
+/// (`group.perm`: see [`pairs`]).
 ///
 /// # Safety
 /// The CPU has AVX-512F, and every offset of `rows` is that of a pair within the buffer.

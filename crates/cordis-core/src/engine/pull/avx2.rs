@@ -843,9 +843,10 @@ fn products_if(
     }
 }
 
-/// `F(n)` of the eight lanes of a group `group`, as two vectors: from `+0.0`, `F - g` for each of its
-/// `rows` (the pull step's `group.rows`), with `group.params` (one `(K, Z)` per row), `x(n)` and `v(n)`
-/// of the lanes `group.x`, `group.v`, and the other ends' pairs in the buffer at `group.base`.
+/// `F(n)` of the eight lanes of a group `group`, as two vectors: from `+0.0`, `F - g` for each
+/// of its `rows` (the pull step's `group.rows`), with `group.params` (one `(K, Z)` per row), `x(n)`
+/// and `v(n)` of the lanes `group.x`, `group.v`, and the other ends' pairs in the buffer at
+/// `group.base`.
 ///
 /// # Safety
 /// The CPU has AVX2, and every offset of `rows` is that of a pair within the buffer.
