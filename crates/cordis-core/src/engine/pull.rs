@@ -84,7 +84,8 @@ mod avx2;
 enum Isa {
     /// (with the CPU's proof)
     Avx512(Avx512),
-    /// Made only where [`Simd::detect`](super::Simd) found AVX2 on this CPU.
+    /// Made only where the CPU has AVX2: [`Simd::detect`](super::Simd) found it, or a test
+    /// asked for it on a CPU that has it (`Engine::new_for`, whatever `CORDIS_SIMD` allows).
     Avx2,
 }
 
@@ -821,7 +822,8 @@ impl Pull {
             // SAFETY: the token exists, so the CPU has AVX-512F (see `Avx512::detect`).
             Isa::Avx512(_) => unsafe { groups!(groups, prev, pc) },
             // SAFETY: `Pull::new` made `Isa::Avx2` from `Simd::Avx2`, which `Simd::detect`
-            // returns only when the CPU has AVX2 (an engine does not move to another machine).
+            // returns (and a test asks for) only when the CPU has AVX2 (an engine does not move
+            // to another machine).
             Isa::Avx2 => unsafe { groups!(groups_avx2, cur, prev, pc) },
         }
         #[cfg(not(target_arch = "x86_64"))]
