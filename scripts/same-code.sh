@@ -33,15 +33,16 @@ bodies() {
   ' | sort
 }
 export PAT
-bodies "$A" > /tmp/same-code-a.txt
-bodies "$B" > /tmp/same-code-b.txt
-na=$(wc -l < /tmp/same-code-a.txt); nb=$(wc -l < /tmp/same-code-b.txt)
-same=$(comm -12 <(cut -f1 /tmp/same-code-a.txt) <(cut -f1 /tmp/same-code-b.txt) | wc -l)
-echo "functions matching: A $na, B $nb; the same machine code: $same"
+fa=$(mktemp); fb=$(mktemp)
+trap 'rm -f "$fa" "$fb"' EXIT
+bodies "$A" > "$fa"
+bodies "$B" > "$fb"
+same=$(comm -12 <(cut -f1 "$fa") <(cut -f1 "$fb") | wc -l)
+echo "functions matching: A $(wc -l < "$fa"), B $(wc -l < "$fb"); the same machine code: $same"
 for side in A B; do
+  x=$fa; y=$fb
+  if [ $side = B ]; then x=$fb; y=$fa; fi
   echo "only in $side (instructions, name):"
-  x=/tmp/same-code-a.txt; y=/tmp/same-code-b.txt
-  if [ $side = B ]; then x=/tmp/same-code-b.txt; y=/tmp/same-code-a.txt; fi
   comm -23 <(cut -f1 "$x") <(cut -f1 "$y") | grep -F -f - "$x" | cut -f2- | sort -t$'\t' -k2,2 -k1,1n \
     | sed 's/^/  /' || true
 done
