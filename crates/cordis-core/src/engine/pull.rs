@@ -517,18 +517,15 @@ impl Pull {
         }
     }
 
-    /// Calls `f` on each of the [`Pull::runs`] of the groups `gr` (a network of several pairs),
-    /// with the run's pair (`None`: the table), its groups, and the items of `next` and `pn` of
-    /// their MAS (those of `gr`, from its first).
+    /// Calls `f` on each of the [`Pull::runs`] of the groups of `out` (a network of several
+    /// pairs), with the run's pair (`None`: the table) and its groups with their slots.
     #[cfg(target_arch = "x86_64")]
-    fn by_runs(
-        &self,
-        k: &Kernel,
-        gr: Range<usize>,
-        mut next: &mut [f64],
-        mut pn: &mut [[f64; 2]],
-        mut f: impl FnMut(Option<u32>, Range<usize>, &mut [f64], &mut [[f64; 2]]),
-    ) {
+    fn by_runs(&self, k: &Kernel, out: Slots, mut f: impl FnMut(Option<u32>, Slots)) {
+        let Slots {
+            groups: gr,
+            mut next,
+            mut pn,
+        } = out;
         let first = (self.runs).partition_point(|&(end, _)| end as usize <= gr.start);
         let mut start = gr.start;
         for &(end, pair) in &self.runs[first..] {
@@ -541,7 +538,12 @@ impl Pull {
             next = rest;
             let (px, rest) = std::mem::take(&mut pn).split_at_mut(nx.len());
             pn = rest;
-            f(pair, start..end, nx, px);
+            let run = Slots {
+                groups: start..end,
+                next: nx,
+                pn: px,
+            };
+            f(pair, run);
             start = end;
         }
         assert!(start >= gr.end && next.is_empty() && pn.is_empty());
@@ -753,16 +755,14 @@ impl Pull {
             };
             self.record(k, cur, prev, sf, &mut out[frame * ch..(frame + 1) * ch]);
             let mine = whole.slots.clone();
-            self.step(
+            let now = Now {
                 k,
-                *n,
-                &whole,
+                n: *n,
                 cur,
                 prev,
                 pc,
-                &mut next[mine.clone()],
-                &mut pn[mine],
-            );
+            };
+            self.step(now, &whole, &mut next[mine.clone()], &mut pn[mine]);
             *n += 1;
             *c = roles.next;
             flip = !flip;
@@ -782,20 +782,12 @@ impl Pull {
         k.record_with(&self.recorded, cur, prev, sf, frame);
     }
 
-    /// Step `n` of `share`: `x(n+1)` of its moving materials into `next` and their pairs into
-    /// `pn` (both its `slots`), from `x(n)`, `x(n-1)` and the pairs `pc` of every material.
-    #[allow(clippy::too_many_arguments)] // the step's buffers
-    pub(super) fn step(
-        &self,
-        k: &Kernel,
-        n: u64,
-        share: &Share,
-        cur: &[f64],
-        prev: &[f64],
-        pc: &[[f64; 2]],
-        next: &mut [f64],
-        pn: &mut [[f64; 2]],
-    ) {
+    /// Step `now.n` of `share`: `x(n+1)` of its moving materials into `next` and their pairs
+    /// into `pn` (both its `slots`), from `x(n)`, `x(n-1)` and the pairs `pc` of every material.
+    pub(super) fn step(&self, now: Now, share: &Share, next: &mut [f64], pn: &mut [[f64; 2]]) {
+        let Now {
+            k, cur, prev, pc, ..
+        } = now;
         let nm = k.nm;
         assert!(cur.len() == nm && prev.len() == nm && pc.len() == nm);
         let slots = share.slots.clone();
@@ -803,54 +795,53 @@ impl Pull {
         let mas = slots.end.min(k.n_mas) - slots.start;
         let (next, next_others) = next.split_at_mut(mas);
         let (pn, pn_others) = pn.split_at_mut(mas);
-        let gr = share.groups.clone();
+        let out = Slots {
+            groups: share.groups.clone(),
+            next,
+            pn,
+        };
         // the MAS, their loop compiled for one row of parameters or one per row
         #[cfg(target_arch = "x86_64")]
         macro_rules! groups {
-            ($groups:ident, $($buffers:expr),*) => {
+            ($groups:ident) => {
                 if let [one] = &self.params[..] {
-                    let params = |_: Range<usize>| std::iter::repeat(one);
-                    self.$groups(k, n, gr, $($buffers,)* params, next, pn)
+                    self.$groups(now, &|_: Range<usize>| std::iter::repeat(one), out)
                 } else {
-                    let params = |r: Range<usize>| self.params[r].iter();
-                    self.$groups(k, n, gr, $($buffers,)* params, next, pn)
+                    self.$groups(now, &|r: Range<usize>| self.params[r].iter(), out)
                 }
             };
         }
         #[cfg(target_arch = "x86_64")]
         match self.isa {
             // SAFETY: the token exists, so the CPU has AVX-512F (see `Avx512::detect`).
-            Isa::Avx512(_) => unsafe { groups!(groups, prev, pc) },
+            Isa::Avx512(_) => unsafe { groups!(groups) },
             // SAFETY: `Pull::new` made `Isa::Avx2` from `Simd::Avx2`, which `Simd::detect`
             // returns (and a test asks for) only when the CPU has AVX2 (an engine does not move
             // to another machine).
-            Isa::Avx2 => unsafe { groups!(groups_avx2, cur, prev, pc) },
+            Isa::Avx2 => unsafe { groups!(groups_avx2) },
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
-            let _ = (n, gr, next, pn);
+            let _ = out;
             unreachable!("a pull step needs AVX-512 or AVX2, which exist only on x86-64");
         }
         if slots.end > k.n_mas {
             assert!(slots.end == k.n_mce && slots.start <= k.n_mas);
-            self.others(k, n, cur, prev, pc, next_others, pn_others);
+            self.others(now, next_others, pn_others);
         }
     }
 
-    /// The CEL and ENX of step `n`: their `x(n+1)` into `next` and pairs into `pn` (slots
+    /// The CEL and ENX of step `now.n`: their `x(n+1)` into `next` and pairs into `pn` (slots
     /// `n_mas..n_mce`).
-    #[allow(clippy::too_many_arguments)] // the step's buffers
     #[inline]
-    fn others(
-        &self,
-        k: &Kernel,
-        n: u64,
-        cur: &[f64],
-        prev: &[f64],
-        pc: &[[f64; 2]],
-        next: &mut [f64],
-        pn: &mut [[f64; 2]],
-    ) {
+    fn others(&self, now: Now, next: &mut [f64], pn: &mut [[f64; 2]]) {
+        let Now {
+            k,
+            n,
+            cur,
+            prev,
+            pc,
+        } = now;
         assert!(next.len() == k.n_mce - k.n_mas && pn.len() == next.len());
         for (c, cel) in k.cel.iter().enumerate() {
             let s = k.n_mas + c;
@@ -907,18 +898,12 @@ impl Pull {
     /// only one that may be partial.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    #[allow(clippy::too_many_arguments)] // the step's buffers
     #[inline]
     fn groups<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>>(
         &self,
-        k: &Kernel,
-        n: u64,
-        gr: Range<usize>,
-        prev: &[f64],
-        pc: &[[f64; 2]],
-        params: impl Fn(Range<usize>) -> I,
-        next: &mut [f64],
-        pn: &mut [[f64; 2]],
+        now: Now,
+        params: &impl Fn(Range<usize>) -> I,
+        out: Slots,
     ) {
         match &self.curves {
             // (no `curves`, so one pair: several have the table's shape, `Pull::new`)
@@ -928,26 +913,19 @@ impl Pull {
                 // `Isa::Avx512` (asserted) only with the token, the CPU's proof of it.
                 assert!(matches!(self.isa, Isa::Avx512(_)));
                 let curves = unsafe { LongCurves::new(long, self.full_rows) };
-                self.groups_with(curves, k, n, gr, prev, pc, &params, next, pn)
+                self.groups_with(curves, now, params, out)
             }
             Some(pair) => pair.visit(WithCurves {
                 pull: self,
-                k,
-                n,
-                gr,
-                prev,
-                pc,
-                params: &params,
-                next,
-                pn,
+                now,
+                params,
+                out,
             }),
             None if !self.thresholds.is_empty() && self.full_rows => {
-                self.groups_with(Buts::<false>, k, n, gr, prev, pc, &params, next, pn)
+                self.groups_with(Buts::<false>, now, params, out)
             }
-            None if !self.thresholds.is_empty() => {
-                self.groups_with(Buts::<true>, k, n, gr, prev, pc, &params, next, pn)
-            }
-            None => self.groups_with(Springs, k, n, gr, prev, pc, &params, next, pn),
+            None if !self.thresholds.is_empty() => self.groups_with(Buts::<true>, now, params, out),
+            None => self.groups_with(Springs, now, params, out),
         }
     }
 
@@ -955,34 +933,24 @@ impl Pull {
     /// terms (with all three inlined into `groups`, the BUT network ran 4 % slower).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    #[allow(clippy::too_many_arguments)] // the step's buffers
     #[inline(never)]
     fn groups_with<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, T: Terms>(
         &self,
         terms: T,
-        k: &Kernel,
-        n: u64,
-        gr: Range<usize>,
-        prev: &[f64],
-        pc: &[[f64; 2]],
+        now: Now,
         params: &impl Fn(Range<usize>) -> I,
-        next: &mut [f64],
-        pn: &mut [[f64; 2]],
+        out: Slots,
     ) {
         // (`groups_as` checks each piece against its buffers)
-        let ([whole, part], (next, next_part), (pn, pn_part)) = split_whole(k, gr, next, pn);
+        let [whole, part] = out.split_whole(now.k);
         let none: &[f64] = &[];
         macro_rules! both {
             ($div:literal, $per:literal, $m:expr, $ms:expr) => {{
-                self.groups_as::<_, _, $div, $per, true>(
-                    terms, k, n, whole, prev, pc, params, $m, $ms, next, pn,
-                );
-                self.groups_as::<_, _, $div, $per, false>(
-                    terms, k, n, part, prev, pc, params, $m, $ms, next_part, pn_part,
-                );
+                self.groups_as::<_, _, $div, $per, true>(terms, now, params, $m, $ms, whole);
+                self.groups_as::<_, _, $div, $per, false>(terms, now, params, $m, $ms, part);
             }};
         }
-        match &k.mas {
+        match &now.k.mas {
             MasLaw::UniformInv(inv) => both!(false, false, inv, none),
             MasLaw::UniformDiv(m) => both!(true, false, m, none),
             MasLaw::Inv(inv) => both!(false, true, &0.0, inv),
@@ -990,12 +958,11 @@ impl Pull {
         }
     }
 
-    /// [`Pull::groups`] for the groups `gr`, all whole (`WHOLE`) or the last, partial, one;
+    /// [`Pull::groups`] for the groups of `out`, all whole (`WHOLE`) or the last, partial, one;
     /// `x(n+1) = 2 x(n) - x(n-1) + F(n) / M`, dividing (`DIV`) or multiplying by `1 / M`, `m` for
     /// every MAS or (`PER_MAS`) each MAS's own in `ms` (by storage slot).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    #[allow(clippy::too_many_arguments)] // the step's buffers
     #[inline]
     fn groups_as<
         'p,
@@ -1007,17 +974,18 @@ impl Pull {
     >(
         &self,
         terms: T,
-        k: &Kernel,
-        n: u64,
-        gr: Range<usize>,
-        prev: &[f64],
-        pc: &[[f64; 2]],
+        now: Now,
         params: &impl Fn(Range<usize>) -> I,
         m: &f64,
         ms: &[f64],
-        next: &mut [f64],
-        pn: &mut [[f64; 2]],
+        out: Slots,
     ) {
+        let Now { k, n, prev, pc, .. } = now;
+        let Slots {
+            groups: gr,
+            next,
+            pn,
+        } = out;
         // `next` and `pn` are the slots of the MAS of groups `gr`, from `o`
         let o = LANES * gr.start;
         assert!(next.len() == (LANES * gr.end).min(k.n_mas) - o.min(k.n_mas));
@@ -1450,14 +1418,9 @@ fn read_pair<const A: usize, const B: usize>(
 #[cfg(target_arch = "x86_64")]
 struct WithCurves<'a, 'b, P> {
     pull: &'a Pull,
-    k: &'a Kernel,
-    n: u64,
-    gr: Range<usize>,
-    prev: &'a [f64],
-    pc: &'a [[f64; 2]],
+    now: Now<'a>,
     params: &'a P,
-    next: &'b mut [f64],
-    pn: &'b mut [[f64; 2]],
+    out: Slots<'b>,
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -1469,14 +1432,9 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
     fn call<const A: usize, const B: usize>(self, k: ExactCurve<A>, z: ExactCurve<B>) {
         let WithCurves {
             pull,
-            k: kernel,
-            n,
-            gr,
-            prev,
-            pc,
+            now,
             params,
-            next,
-            pn,
+            out,
         } = self;
         assert!(matches!(pull.isa, Isa::Avx512(_)));
         // SAFETY: a pull step has `Isa::Avx512` only with the token, the CPU's proof of
@@ -1485,25 +1443,25 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
             let full_rows = pull.full_rows;
             if !pull.several {
                 let curves = Curves::new(k, z, full_rows);
-                pull.groups_with(curves, kernel, n, gr, prev, pc, params, next, pn);
+                pull.groups_with(curves, now, params, out);
             } else {
                 // (each run of `gr`: its pair's curves, a long pair's, or the table)
                 let table = CurveTable::<A, B> {
                     full_rows,
                     longs: &pull.longs,
                 };
-                pull.by_runs(kernel, gr, next, pn, |pair, groups, nx, px| match pair {
+                pull.by_runs(now.k, out, |pair, run| match pair {
                     Some(at @ LONGS..) => {
                         let long = &pull.longs[(at - LONGS) as usize];
                         let curves = LongCurves::new(long, full_rows);
-                        pull.groups_with(curves, kernel, n, groups, prev, pc, params, nx, px);
+                        pull.groups_with(curves, now, params, run);
                     }
                     Some(at) => {
                         let (k, z) = read_pair::<A, B>(&pull.table, at);
                         let curves = Curves::new(k, z, full_rows);
-                        pull.groups_with(curves, kernel, n, groups, prev, pc, params, nx, px);
+                        pull.groups_with(curves, now, params, run);
                     }
-                    None => pull.groups_with(table, kernel, n, groups, prev, pc, params, nx, px),
+                    None => pull.groups_with(table, now, params, run),
                 });
             }
         }
@@ -1663,25 +1621,48 @@ fn runs(bounds: &[u32], row_curves: &[u32]) -> Vec<(u32, Option<u32>)> {
     joined
 }
 
-/// The whole groups of `gr` (of eight MAS) and the last, partial, one if `gr` has it (then
-/// `gr.end - 1`; else an empty range), with `next` and `pn` (the slots of `gr`'s MAS) cut where
-/// the partial group's slots start.
-#[cfg(target_arch = "x86_64")]
-#[allow(clippy::type_complexity)] // (the two pieces of each buffer)
-fn split_whole<'b>(
-    k: &Kernel,
-    gr: Range<usize>,
+/// What step `n` reads: the kernel, `x(n)` and `x(n-1)` of every material (`cur`, `prev`, by
+/// storage slot) and their pairs `pc` (`(x(n), v(n))`, [`Pull::prepare`]).
+#[derive(Clone, Copy)]
+pub(super) struct Now<'a> {
+    pub(super) k: &'a Kernel,
+    pub(super) n: u64,
+    pub(super) cur: &'a [f64],
+    pub(super) prev: &'a [f64],
+    pub(super) pc: &'a [[f64; 2]],
+}
+
+/// Groups of a step's MAS, and where their `x(n+1)` and pairs go: `next` and `pn`, the slots of
+/// those MAS (from the first group's first).
+struct Slots<'b> {
+    groups: Range<usize>,
     next: &'b mut [f64],
     pn: &'b mut [[f64; 2]],
-) -> (
-    [Range<usize>; 2],
-    (&'b mut [f64], &'b mut [f64]),
-    (&'b mut [[f64; 2]], &'b mut [[f64; 2]]),
-) {
-    let whole = gr.start..gr.end.min(k.n_mas / LANES).max(gr.start);
-    let at = LANES * whole.len();
-    let part = whole.end..gr.end;
-    ([whole, part], next.split_at_mut(at), pn.split_at_mut(at))
+}
+
+impl<'b> Slots<'b> {
+    /// The whole groups (of eight MAS), and the last, partial, one if there is one (then
+    /// `groups.end - 1`; else no group), each with its slots.
+    #[cfg(target_arch = "x86_64")]
+    fn split_whole(self, k: &Kernel) -> [Slots<'b>; 2] {
+        let gr = self.groups;
+        let whole = gr.start..gr.end.min(k.n_mas / LANES).max(gr.start);
+        let at = LANES * whole.len();
+        let (next, next_part) = self.next.split_at_mut(at);
+        let (pn, pn_part) = self.pn.split_at_mut(at);
+        [
+            Slots {
+                groups: whole.clone(),
+                next,
+                pn,
+            },
+            Slots {
+                groups: whole.end..gr.end,
+                next: next_part,
+                pn: pn_part,
+            },
+        ]
+    }
 }
 
 /// `F(n)` of the eight lanes of a group `group`: from `+0.0`, `F - g` for each of its `rows`
@@ -1883,8 +1864,13 @@ impl PullJob<'_> {
                     self.pull
                         .record(k, cur, prev, sf, &mut out[s * ch..(s + 1) * ch]);
                 }
-                let pc = pc.read().as_chunks::<2>().0;
-                let n = self.n0 + s as u64;
+                let now = Now {
+                    k,
+                    n: self.n0 + s as u64,
+                    cur,
+                    prev,
+                    pc: pc.read().as_chunks::<2>().0,
+                };
                 let chunks = |q: usize| self.shares[q].len();
                 for (q, j) in Claim::claimed(&self.claims[..threads], t, s, chunks) {
                     let chunk = &self.shares[q][j];
@@ -1894,7 +1880,7 @@ impl PullJob<'_> {
                         .write(2 * slots.start..2 * slots.end)
                         .as_chunks_mut::<2>()
                         .0;
-                    self.pull.step(k, n, chunk, cur, prev, pc, next, pn);
+                    self.pull.step(now, chunk, next, pn);
                 }
             }
             barrier.wait()?;

@@ -28,8 +28,7 @@ use std::hint::black_box;
 use std::ops::Range;
 
 use super::{
-    read_pair, split_whole, AnyPair, Group, Kernel, MasLaw, Params, Pull, Row, LANES, LONGS,
-    NO_LNL, PARTS,
+    read_pair, AnyPair, Group, MasLaw, Now, Params, Pull, Row, Slots, LANES, LONGS, NO_LNL, PARTS,
 };
 use crate::curve::{ExactCurve, WideCurve, WideLong};
 use crate::engine::{by_div, by_inv, PairFn};
@@ -49,39 +48,26 @@ impl Pull {
     /// The MAS, group by group: the whole groups compiled for the kernel's inertias, the last
     /// one, if it is partial, lane by lane.
     #[target_feature(enable = "avx2")]
-    #[allow(clippy::too_many_arguments)] // the step's buffers
     #[inline]
     pub(super) fn groups_avx2<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>>(
         &self,
-        k: &Kernel,
-        n: u64,
-        gr: Range<usize>,
-        cur: &[f64],
-        prev: &[f64],
-        pc: &[[f64; 2]],
-        params: impl Fn(Range<usize>) -> I,
-        next: &mut [f64],
-        pn: &mut [[f64; 2]],
+        now: Now,
+        params: &impl Fn(Range<usize>) -> I,
+        out: Slots,
     ) {
         match &self.curves {
             Some(pair) => pair.visit(WithCurves4 {
                 pull: self,
-                k,
-                n,
-                gr,
-                cur,
-                prev,
-                pc,
-                params: &params,
-                next,
-                pn,
+                now,
+                params,
+                out,
             }),
             None => {
                 // (a long pair alone keeps the gather step on AVX2: `Pull::new`)
                 assert!(self.longs.is_empty());
                 macro_rules! with {
                     ($terms:expr) => {
-                        self.groups_avx2_with($terms, k, n, gr, cur, prev, pc, &params, next, pn)
+                        self.groups_avx2_with($terms, now, params, out)
                     };
                 }
                 let buts = !self.thresholds.is_empty();
@@ -100,58 +86,37 @@ impl Pull {
     /// [`Pull::groups_avx2`] with the group sums of `terms`, a function of its own for each kind
     /// of terms (as the AVX-512 step's `groups_with`).
     #[target_feature(enable = "avx2")]
-    #[allow(clippy::too_many_arguments)] // the step's buffers
     #[inline(never)]
     fn groups_avx2_with<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, T: Terms4>(
         &self,
         terms: T,
-        k: &Kernel,
-        n: u64,
-        gr: Range<usize>,
-        cur: &[f64],
-        prev: &[f64],
-        pc: &[[f64; 2]],
+        now: Now,
         params: &impl Fn(Range<usize>) -> I,
-        next: &mut [f64],
-        pn: &mut [[f64; 2]],
+        out: Slots,
     ) {
-        let ([whole, part], (next, next_part), (pn, pn_part)) = split_whole(k, gr, next, pn);
+        let [whole, part] = out.split_whole(now.k);
         let none: &[f64] = &[];
         macro_rules! whole {
             ($div:literal, $per:literal, $m:expr, $ms:expr) => {
-                self.whole_avx2::<_, _, $div, $per>(
-                    terms,
-                    k,
-                    n,
-                    whole.clone(),
-                    cur,
-                    prev,
-                    pc,
-                    params,
-                    $m,
-                    $ms,
-                    next,
-                    pn,
-                )
+                self.whole_avx2::<_, _, $div, $per>(terms, now, params, $m, $ms, whole)
             };
         }
-        match &k.mas {
+        match &now.k.mas {
             MasLaw::UniformInv(inv) => whole!(false, false, inv, none),
             MasLaw::UniformDiv(m) => whole!(true, false, m, none),
             MasLaw::Inv(inv) => whole!(false, true, &0.0, inv),
             MasLaw::Div(m) => whole!(true, true, &0.0, m),
         }
-        if !part.is_empty() {
-            assert!(part.len() == 1);
-            self.part(k, n, part.start, cur, prev, pc, params, next_part, pn_part);
+        if !part.groups.is_empty() {
+            assert!(part.groups.len() == 1);
+            self.part(now, params, part);
         }
     }
 
-    /// [`Pull::groups_avx2`] for the whole groups `gr`: `x(n+1) = 2 x(n) - x(n-1) + F(n) / M`,
+    /// [`Pull::groups_avx2`] for the whole groups of `out`: `x(n+1) = 2 x(n) - x(n-1) + F(n) / M`,
     /// dividing (`DIV`) or multiplying by `1 / M`, `m` for every MAS or (`PER_MAS`) each MAS's
     /// own in `ms` (by storage slot).
     #[target_feature(enable = "avx2")]
-    #[allow(clippy::too_many_arguments)] // the step's buffers
     #[inline]
     fn whole_avx2<
         'p,
@@ -162,18 +127,24 @@ impl Pull {
     >(
         &self,
         terms: T,
-        k: &Kernel,
-        n: u64,
-        gr: Range<usize>,
-        cur: &[f64],
-        prev: &[f64],
-        pc: &[[f64; 2]],
+        now: Now,
         params: &impl Fn(Range<usize>) -> I,
         m: &f64,
         ms: &[f64],
-        next: &mut [f64],
-        pn: &mut [[f64; 2]],
+        out: Slots,
     ) {
+        let Now {
+            k,
+            n,
+            cur,
+            prev,
+            pc,
+        } = now;
+        let Slots {
+            groups: gr,
+            next,
+            pn,
+        } = out;
         // `next` and `pn` are the slots of the MAS of groups `gr`, from `o`, every group whole
         let o = LANES * gr.start;
         assert!((gr.is_empty() || LANES * gr.end <= k.n_mas) && gr.end < self.bounds.len());
@@ -251,23 +222,19 @@ impl Pull {
         }
     }
 
-    /// The partial group `g` (the last), lane by lane: the REF, BUT and LNL terms of the lane's
+    /// The partial group of `out` (the last), lane by lane: the REF, BUT and LNL terms of the lane's
     /// rows (those its mask bits name; the others are padding, skipped), then its ENF inputs,
     /// with the reference's expressions (a BUT or LNL term from end 2's side as the AVX-512
     /// step's `sum_but` and `sum_lnl` compute it).
-    #[allow(clippy::too_many_arguments)] // the step's buffers
     fn part<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>>(
         &self,
-        k: &Kernel,
-        n: u64,
-        g: usize,
-        cur: &[f64],
-        prev: &[f64],
-        pc: &[[f64; 2]],
-        params: impl Fn(Range<usize>) -> I,
-        next: &mut [f64],
-        pn: &mut [[f64; 2]],
+        now: Now,
+        params: &impl Fn(Range<usize>) -> I,
+        out: Slots,
     ) {
+        let (k, pc) = (now.k, now.pc);
+        let Slots { groups, next, pn } = out;
+        let g = groups.start;
         let s0 = LANES * g;
         let lanes = k.n_mas - s0;
         assert!(lanes < LANES && next.len() == lanes && pn.len() == lanes);
@@ -275,7 +242,7 @@ impl Pull {
         let inputs = &self.enf[self.enf_bounds[g] as usize..self.enf_bounds[g + 1] as usize];
         for i in 0..lanes {
             let s = s0 + i;
-            let (x, xp) = (cur[s], prev[s]);
+            let (x, xp) = (now.cur[s], now.prev[s]);
             let v = x - xp;
             let mut f = 0.0;
             for (r, [kr, zr]) in rows.clone().zip(params(rows.clone())) {
@@ -309,7 +276,7 @@ impl Pull {
                 }
             }
             for &(_, e) in inputs.iter().filter(|&&(l, _)| l as usize == i) {
-                f += k.enf[e as usize].at(n);
+                f += k.enf[e as usize].at(now.n);
             }
             let xn = match &k.mas {
                 MasLaw::UniformInv(inv) => by_inv(x, xp, f, *inv),
@@ -551,15 +518,9 @@ unsafe fn long_forces4(pair: &AnyPair, d: __m256d, dv: __m256d) -> __m256d {
 /// [`Pull::groups_avx2_with`] with [`Curves4`] of the pair's point counts.
 struct WithCurves4<'a, 'b, P> {
     pull: &'a Pull,
-    k: &'a Kernel,
-    n: u64,
-    gr: Range<usize>,
-    cur: &'a [f64],
-    prev: &'a [f64],
-    pc: &'a [[f64; 2]],
+    now: Now<'a>,
     params: &'a P,
-    next: &'b mut [f64],
-    pn: &'b mut [[f64; 2]],
+    out: Slots<'b>,
 }
 
 impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> PairFn
@@ -570,15 +531,9 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
     fn call<const A: usize, const B: usize>(self, k: ExactCurve<A>, z: ExactCurve<B>) {
         let WithCurves4 {
             pull,
-            k: kernel,
-            n,
-            gr,
-            cur,
-            prev,
-            pc,
+            now,
             params,
-            next,
-            pn,
+            out,
         } = self;
         // SAFETY: this step runs only where `Simd::detect` found AVX2 (see `Pull::step`), which
         // `V4` and `groups_avx2_with` need.
@@ -594,7 +549,7 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
             };
             if !pull.several {
                 let curves = pair4(k, z);
-                pull.groups_avx2_with(curves, kernel, n, gr, cur, prev, pc, params, next, pn);
+                pull.groups_avx2_with(curves, now, params, out);
             } else {
                 // (each run of `gr`: its pair's curves, a long pair's, or the table)
                 let table = CurveTable4::<A, B> {
@@ -602,7 +557,7 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
                     masked,
                     longs: &pull.longs,
                 };
-                pull.by_runs(kernel, gr, next, pn, |pair, groups, nx, px| match pair {
+                pull.by_runs(now.k, out, |pair, run| match pair {
                     Some(at @ LONGS..) => {
                         let c = Long4::new(&pull.longs[(at - LONGS) as usize]);
                         let curves = Curves4 {
@@ -610,19 +565,14 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
                             full_rows,
                             masked,
                         };
-                        pull.groups_avx2_with(
-                            curves, kernel, n, groups, cur, prev, pc, params, nx, px,
-                        );
+                        pull.groups_avx2_with(curves, now, params, run);
                     }
                     Some(at) => {
                         let (k, z) = read_pair::<A, B>(&pull.table, at);
                         let curves = pair4(k, z);
-                        pull.groups_avx2_with(
-                            curves, kernel, n, groups, cur, prev, pc, params, nx, px,
-                        );
+                        pull.groups_avx2_with(curves, now, params, run);
                     }
-                    None => pull
-                        .groups_avx2_with(table, kernel, n, groups, cur, prev, pc, params, nx, px),
+                    None => pull.groups_avx2_with(table, now, params, run),
                 });
             }
         }
