@@ -758,21 +758,19 @@ impl Grid {
 
     /// Step `n` of `part`: `x(n+1)` of its MAS into `next` (exactly [`Grid::part_slots`]), as
     /// [`Sheet::step`] steps each of its sheets.
-    #[allow(clippy::too_many_arguments)] // the step's buffers
     #[inline]
     fn step_part(
         &self,
         k: &Kernel,
         n: u64,
         part: Part,
-        cur: &[f64],
-        prev: &[f64],
+        (cur, prev): (&[f64], &[f64]),
         next: &mut [f64],
         scratch: &mut [f64],
     ) {
         let bank = &self.sheets[part.sheets];
         if let [sheet] = bank {
-            return sheet.step(k, n, part.rows, cur, prev, next, scratch);
+            return sheet.step(k, n, part.rows, (cur, prev), next, scratch);
         }
         let ms = bank[0].inertias(k);
         assert!(cur.len() == k.nm && prev.len() == k.nm);
@@ -781,7 +779,7 @@ impl Grid {
         for sheet in bank.iter().filter(|s| !s.fixes.is_empty()) {
             let mine = sheet.slots(&(0..1));
             let next = &mut next[mine.start - lo..mine.end - lo];
-            sheet.fixes(k, n, 0..1, cur, prev, next, ms);
+            sheet.fixes(k, n, 0..1, (cur, prev), next, ms);
         }
     }
 
@@ -806,14 +804,14 @@ impl Grid {
                 if let [sheet] = bank {
                     let all = 0..sheet.rows;
                     let next = &mut next[sheet.slots(&all)];
-                    sheet.step(k, st.n, all, cur, prev, next, &mut st.grid);
+                    sheet.step(k, st.n, all, (cur, prev), next, &mut st.grid);
                 } else {
                     let part = Part {
                         sheets: u.clone(),
                         rows: 0..1,
                     };
                     let next = &mut next[self.part_slots(&part)];
-                    self.step_part(k, st.n, part, cur, prev, next, &mut st.grid);
+                    self.step_part(k, st.n, part, (cur, prev), next, &mut st.grid);
                 }
             }
             st.n += 1;
@@ -1171,14 +1169,12 @@ impl Sheet {
     /// Step `n` of `rows`: `x(n+1)` of their MAS into `next` (exactly their slots), from `x(n)`,
     /// `x(n-1)` of every material, with `scratch` (for a membrane at least three row buffers,
     /// [`Grid::scratch_len`]).
-    #[allow(clippy::too_many_arguments)] // the step's buffers
     fn step(
         &self,
         k: &Kernel,
         n: u64,
         rows: Range<usize>,
-        cur: &[f64],
-        prev: &[f64],
+        (cur, prev): (&[f64], &[f64]),
         next: &mut [f64],
         scratch: &mut [f64],
     ) {
@@ -1197,7 +1193,7 @@ impl Sheet {
             );
         }
         if !self.fixes.is_empty() {
-            self.fixes(k, n, rows, cur, prev, next, ms);
+            self.fixes(k, n, rows, (cur, prev), next, ms);
         }
     }
 
@@ -1297,14 +1293,12 @@ impl Sheet {
     }
 
     /// [`Sheet::step`]'s fixes: the MAS of `rows` with terms of their own, term by term.
-    #[allow(clippy::too_many_arguments)] // the step's buffers
     fn fixes(
         &self,
         k: &Kernel,
         n: u64,
         rows: Range<usize>,
-        cur: &[f64],
-        prev: &[f64],
+        (cur, prev): (&[f64], &[f64]),
         next: &mut [f64],
         ms: &[f64],
     ) {
@@ -2015,7 +2009,7 @@ impl GridJob<'_> {
                 for (q, j) in Claim::claimed(&self.claims[..threads], t, s, chunks) {
                     for part in grid.parts(self.shares[q][j].clone()) {
                         let next = self.pos[r.next].write(grid.part_slots(&part));
-                        grid.step_part(k, n, part, state.0, state.1, next, scratch);
+                        grid.step_part(k, n, part, state, next, scratch);
                     }
                 }
             }
