@@ -222,10 +222,10 @@ impl Pull {
         }
     }
 
-    /// The partial group of `out` (the last), lane by lane: the REF, BUT and LNL terms of the lane's
-    /// rows (those its mask bits name; the others are padding, skipped), then its ENF inputs,
-    /// with the reference's expressions (a BUT or LNL term from end 2's side as the AVX-512
-    /// step's `sum_but` and `sum_lnl` compute it).
+    /// The partial group of `out` (the last), lane by lane: the REF, BUT and LNL terms of the
+    /// lane's rows (those its mask bits name; the others are padding, skipped), then its ENF
+    /// inputs, with the reference's expressions (a BUT or LNL term from end 2's side as the
+    /// AVX-512 step's `sum_but` and `sum_lnl` compute it).
     fn part<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>>(
         &self,
         now: Now,
