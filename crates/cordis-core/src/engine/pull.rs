@@ -784,7 +784,7 @@ impl Pull {
 
     /// Step `now.n` of `share`: `x(n+1)` of its moving materials into `next` and their pairs
     /// into `pn` (both its `slots`), from `x(n)`, `x(n-1)` and the pairs `pc` of every material.
-    pub(super) fn step(&self, now: Now, share: &Share, next: &mut [f64], pn: &mut [[f64; 2]]) {
+    fn step(&self, now: Now, share: &Share, next: &mut [f64], pn: &mut [[f64; 2]]) {
         let Now {
             k, cur, prev, pc, ..
         } = now;
@@ -1445,7 +1445,7 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
                 let curves = Curves::new(k, z, full_rows);
                 pull.groups_with(curves, now, params, out);
             } else {
-                // (each run of `gr`: its pair's curves, a long pair's, or the table)
+                // (each run of the groups: its pair's curves, a long pair's, or the table)
                 let table = CurveTable::<A, B> {
                     full_rows,
                     longs: &pull.longs,
@@ -1624,12 +1624,12 @@ fn runs(bounds: &[u32], row_curves: &[u32]) -> Vec<(u32, Option<u32>)> {
 /// What step `n` reads: the kernel, `x(n)` and `x(n-1)` of every material (`cur`, `prev`, by
 /// storage slot) and their pairs `pc` (`(x(n), v(n))`, [`Pull::prepare`]).
 #[derive(Clone, Copy)]
-pub(super) struct Now<'a> {
-    pub(super) k: &'a Kernel,
-    pub(super) n: u64,
-    pub(super) cur: &'a [f64],
-    pub(super) prev: &'a [f64],
-    pub(super) pc: &'a [[f64; 2]],
+struct Now<'a> {
+    k: &'a Kernel,
+    n: u64,
+    cur: &'a [f64],
+    prev: &'a [f64],
+    pc: &'a [[f64; 2]],
 }
 
 /// Groups of a step's MAS, and where their `x(n+1)` and pairs go: `next` and `pn`, the slots of

@@ -551,7 +551,7 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
                 let curves = pair4(k, z);
                 pull.groups_avx2_with(curves, now, params, out);
             } else {
-                // (each run of `gr`: its pair's curves, a long pair's, or the table)
+                // (each run of the groups: its pair's curves, a long pair's, or the table)
                 let table = CurveTable4::<A, B> {
                     full_rows,
                     masked,
