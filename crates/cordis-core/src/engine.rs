@@ -1342,7 +1342,7 @@ impl State {
             let mats = tile.mats.clone();
             let sf = Forces(&self.sf);
             let next = &mut next[mats.clone()];
-            k.materials_phase(mats, tile.seg, n, cur, prev, next, sf);
+            k.materials_phase(mats, tile.seg, n, (cur, prev), next, sf);
         }
         k.record(cur, &self.sf[..nl], frame);
         self.n = n + 1;
@@ -1377,10 +1377,7 @@ impl State {
         let forces = acc[..nm].iter();
         k.mas_with(
             0..nm,
-            &cur[..nm],
-            &prev[..nm],
-            &mut next[..nm],
-            sf,
+            (&cur[..nm], &prev[..nm], &mut next[..nm], sf),
             forces,
             |&f, _| f,
         );
@@ -2673,14 +2670,12 @@ impl Kernel {
     /// writes `x(n+1)` over `x(n-1)` in `next`, which is exactly `mats` of the `x(n-1)` buffer; `seg`
     /// is [`Kernel::first_segment`] of `mats.start`.
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)] // the phase's inputs, each a slice or an index
     fn materials_phase(
         &self,
         mats: Range<usize>,
         seg: usize,
         n: u64,
-        cur: &[f64],
-        prev: &[f64],
+        (cur, prev): (&[f64], &[f64]),
         next: &mut [f64],
         sf: Forces<'_>,
     ) {
@@ -2694,7 +2689,7 @@ impl Kernel {
         let mas = within(0..self.n_mas);
         if !mas.is_empty() {
             let next = &mut next[mas.start - m0..mas.end - m0];
-            self.update_mas(mas.clone(), seg, &cur[mas.clone()], &prev[mas], next, sf);
+            self.update_mas(mas.clone(), seg, (&cur[mas.clone()], &prev[mas], next, sf));
         }
         let cel = within(self.n_mas..self.n_mc);
         if !cel.is_empty() {
@@ -2736,10 +2731,7 @@ impl Kernel {
         &self,
         r: Range<usize>,
         first: usize,
-        cur: &[f64],
-        prev: &[f64],
-        next: &mut [f64],
-        sf: Forces<'_>,
+        (cur, prev, next, sf): (&[f64], &[f64], &mut [f64], Forces<'_>),
     ) {
         debug_assert_eq!(first, self.first_segment(r.start));
         for seg in &self.mas_segments[first..] {
@@ -2756,14 +2748,15 @@ impl Kernel {
             let Some(streams) = &seg.streams else {
                 let e0 = self.eoff[start] as usize;
                 let edges = &self.eidx[e0..e0 + d * (end - start)];
+                let ms = (cur, prev, next, sf);
                 match d {
-                    1 => self.mas_with(start..end, cur, prev, next, sf, edges.chunks_exact(1), sum),
-                    2 => self.mas_with(start..end, cur, prev, next, sf, edges.chunks_exact(2), sum),
-                    3 => self.mas_with(start..end, cur, prev, next, sf, edges.chunks_exact(3), sum),
-                    4 => self.mas_with(start..end, cur, prev, next, sf, edges.chunks_exact(4), sum),
-                    5 => self.mas_with(start..end, cur, prev, next, sf, edges.chunks_exact(5), sum),
-                    6 => self.mas_with(start..end, cur, prev, next, sf, edges.chunks_exact(6), sum),
-                    _ => self.mas_with(start..end, cur, prev, next, sf, self.csr(start..end), sum),
+                    1 => self.mas_with(start..end, ms, edges.chunks_exact(1), sum),
+                    2 => self.mas_with(start..end, ms, edges.chunks_exact(2), sum),
+                    3 => self.mas_with(start..end, ms, edges.chunks_exact(3), sum),
+                    4 => self.mas_with(start..end, ms, edges.chunks_exact(4), sum),
+                    5 => self.mas_with(start..end, ms, edges.chunks_exact(5), sum),
+                    6 => self.mas_with(start..end, ms, edges.chunks_exact(6), sum),
+                    _ => self.mas_with(start..end, ms, self.csr(start..end), sum),
                 }
                 continue;
             };
@@ -2855,9 +2848,9 @@ impl Kernel {
             (slot, step, mask != 0)
         };
         match d {
-            0 => self.mas_with(start..end, cur, prev, next, sf, 0..n, |_, _| 0.0),
+            0 => self.mas_with(start..end, (cur, prev, next, sf), 0..n, |_, _| 0.0),
             _ => {
-                self.mas_with(start..end, cur, prev, next, sf, 0..n, |i, sf| {
+                self.mas_with(start..end, (cur, prev, next, sf), 0..n, |i, sf| {
                     let i = i as u32;
                     let mut f = 0.0;
                     for j in 0..d {
@@ -2928,10 +2921,7 @@ impl Kernel {
         let terms = unit_terms::<D>(sf, 0..body, term);
         self.mas_with(
             r.start..r.start + body,
-            &cur[..body],
-            &prev[..body],
-            &mut next[..body],
-            sf,
+            (&cur[..body], &prev[..body], &mut next[..body], sf),
             0..body,
             |i, _| {
                 let mut f = 0.0;
@@ -2986,14 +2976,10 @@ impl Kernel {
     /// The MAS loop over `r`: `next` holds `x(n-1)` on entry and `x(n+1)` on exit; `force(e, sf)`
     /// is `F(n)` of the MAS whose item of `edges` is `e`.
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)] // the loop's inputs, each a slice or a closure
     fn mas_with<E>(
         &self,
         r: Range<usize>,
-        cur: &[f64],
-        prev: &[f64],
-        next: &mut [f64],
-        sf: Forces<'_>,
+        (cur, prev, next, sf): (&[f64], &[f64], &mut [f64], Forces<'_>),
         edges: impl Iterator<Item = E>,
         force: impl Fn(E, Forces<'_>) -> f64,
     ) {
@@ -4225,7 +4211,7 @@ impl Job<'_> {
                     let mats = own[own.len() - 1 - j].clone();
                     let next = self.pos[r.next].write(mats.clone());
                     let seg = k.first_segment(mats.start);
-                    k.materials_phase(mats, seg, n, cur, prev, next, Forces(sf));
+                    k.materials_phase(mats, seg, n, (cur, prev), next, Forces(sf));
                 }
             }
             barrier.wait()?;

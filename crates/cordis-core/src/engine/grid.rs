@@ -853,7 +853,7 @@ impl Grid {
         sf: &[f64],
     ) {
         let seg = k.first_segment(mats.start);
-        k.materials_phase(mats, seg, n, cur, prev, next, Forces(sf));
+        k.materials_phase(mats, seg, n, (cur, prev), next, Forces(sf));
     }
 }
 
