@@ -1192,6 +1192,324 @@ fn floor_threads_mode(n: usize, threads: usize) {
     );
 }
 
+/// Two layouts of the pull step's reads, hand-written on the links of a random network of REF
+/// links: the MAS stored by degree, eight a group, a group's `k`-th links in a row of eight lanes
+/// (a lane of a MAS with fewer links reads the MAS itself, a term of `+0.0`); every link's `K` and
+/// `Z` the same (in registers, as the engine's when its rows have one row of parameters); no LNL,
+/// no mask, no output: an upper bound for each layout, not cordis.
+///
+/// - *pairs* (as the engine's pull step): a MAS's `x(n)` and `v(n) = x(n) - x(n-1)` side by side
+///   in a pair buffer; a row loads its eight other ends' pairs (16 bytes each) and splits them
+///   into two vectors; each step writes `x(n+1)` and the next pairs.
+/// - *cached*: the other ends' `x(n)` alone (8 bytes each) from the position buffer, and their
+///   `x(n-1)` from a buffer of the row's own (one vector a row, read, then overwritten with the
+///   `x(n)` just loaded: the next step's `x(n-1)`), so `v(n)` is the same subtraction; each step
+///   writes `x(n+1)` alone.
+///
+/// Both compute the same operations on the same operands, so the same bits (checked).
+struct PullLayouts {
+    n: usize,
+    /// per row: the other ends (material indices)
+    at: Vec<[u32; 8]>,
+    /// per group: the end of its rows in `at`
+    ends: Vec<usize>,
+}
+
+/// A raw buffer shared by the threads of [`PullLayouts::run`].
+#[derive(Clone, Copy)]
+struct Shared(*mut f64);
+// SAFETY: the threads of `PullLayouts::run` write disjoint slots, and read no slot a thread writes
+// in the same step (the barrier between steps orders the writes before the next step's reads).
+unsafe impl Send for Shared {}
+unsafe impl Sync for Shared {}
+
+impl PullLayouts {
+    fn new(net: &Network, n: usize) -> PullLayouts {
+        let mut ends: Vec<Vec<u32>> = vec![Vec::new(); n];
+        for l in &net.links {
+            let (a, b) = (l.a.index(), l.b.index());
+            if a < n && b < n {
+                ends[a].push(b as u32);
+                ends[b].push(a as u32);
+            }
+        }
+        // (stored by degree, as the engine's windows store a group's MAS, so that a group's
+        // MAS have about as many links: `slot[i]` is MAS `i`'s slot, `mas[s]` the MAS in slot `s`)
+        let mut mas: Vec<usize> = (0..n).collect();
+        mas.sort_by_key(|&i| ends[i].len());
+        let mut slot = vec![0u32; n];
+        for (s, &i) in mas.iter().enumerate() {
+            slot[i] = s as u32;
+        }
+        let (mut at, mut bounds) = (Vec::new(), Vec::new());
+        for g in 0..n / 8 {
+            let lanes = &mas[8 * g..8 * g + 8];
+            let rows = lanes.iter().map(|&i| ends[i].len()).max().unwrap_or(0);
+            for r in 0..rows {
+                let other = |j: usize| ends[lanes[j]].get(r).map(|&o| slot[o as usize]);
+                at.push(std::array::from_fn(|j| {
+                    other(j).unwrap_or((8 * g + j) as u32)
+                }));
+            }
+            bounds.push(at.len());
+        }
+        PullLayouts {
+            n: n / 8 * 8,
+            at,
+            ends: bounds,
+        }
+    }
+
+    /// Seconds for `steps` steps on `threads` threads (each a consecutive range of groups, a
+    /// spin barrier after each step), and a checksum of the final positions' bits; `None`
+    /// without AVX-512.
+    fn run(&self, steps: usize, threads: usize, cached: bool) -> Option<(f64, u64)> {
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = (steps, threads, cached);
+            None
+        }
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::sync::atomic::{AtomicUsize, Ordering};
+            if !std::is_x86_feature_detected!("avx512f") {
+                return None;
+            }
+            let n = self.n;
+            let x0 = |i: usize| (i % 7) as f64 * 1e-3;
+            // x(n) in pos[0], x(n-1) = 0 in pos[2]
+            let mut pos: Vec<Vec<f64>> = vec![(0..n).map(x0).collect(), vec![0.0; n], vec![0.0; n]];
+            let pairs0: Vec<f64> = (0..n).flat_map(|i| [x0(i), x0(i)]).collect();
+            let mut pairs = [pairs0.clone(), pairs0];
+            let mut cache = vec![0.0; 8 * self.at.len()];
+            let pos_at: Vec<Shared> = pos.iter_mut().map(|p| Shared(p.as_mut_ptr())).collect();
+            let pairs_at = pairs.each_mut().map(|p| Shared(p.as_mut_ptr()));
+            let cache_at = Shared(cache.as_mut_ptr());
+            let arrived = AtomicUsize::new(0);
+            let groups = self.ends.len();
+            let t = Instant::now();
+            std::thread::scope(|scope| {
+                for th in 0..threads {
+                    let (pos_at, arrived) = (&pos_at, &arrived);
+                    let own = groups * th / threads..groups * (th + 1) / threads;
+                    scope.spawn(move || {
+                        // (the whole `Shared`, not its field: a closure captures what it names)
+                        let (cache_at, pairs_at) = (cache_at, pairs_at);
+                        for s in 0..steps {
+                            let (cur, prev, next) =
+                                (pos_at[s % 3], pos_at[(s + 2) % 3], pos_at[(s + 1) % 3]);
+                            let (pc, pn) = (pairs_at[s % 2], pairs_at[(s + 1) % 2]);
+                            // SAFETY: the CPU has AVX-512F (checked above); every index of `at` is a
+                            // material below `n`, each buffer holds `n` slots (pairs `2 n`, the
+                            // cache 8 a row), and the thread writes only its own groups' slots of
+                            // `next`, `pn` and the cache, which no thread reads in this step.
+                            unsafe {
+                                if cached {
+                                    self.step_cached(own.clone(), cur.0, prev.0, next.0, cache_at.0)
+                                } else {
+                                    self.step_pairs(own.clone(), cur.0, prev.0, next.0, pc.0, pn.0)
+                                }
+                            }
+                            arrived.fetch_add(1, Ordering::AcqRel);
+                            while arrived.load(Ordering::Acquire) < threads * (s + 1) {
+                                std::hint::spin_loop();
+                            }
+                        }
+                    });
+                }
+            });
+            let secs = t.elapsed().as_secs_f64();
+            let sum = pos[steps % 3]
+                .iter()
+                .fold(0u64, |h, x| h.rotate_left(5) ^ x.to_bits());
+            Some((secs, sum))
+        }
+    }
+
+    /// The rows of group `g`.
+    fn rows(&self, g: usize) -> std::ops::Range<usize> {
+        let start = if g == 0 { 0 } else { self.ends[g - 1] };
+        start..self.ends[g]
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn step_pairs(
+        &self,
+        groups: std::ops::Range<usize>,
+        cur: *const f64,
+        prev: *const f64,
+        next: *mut f64,
+        pc: *const f64,
+        pn: *mut f64,
+    ) {
+        use std::arch::x86_64::*;
+        // SAFETY (the whole body): the caller's promise (`run`).
+        unsafe {
+            let xs = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14);
+            let vs = _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
+            let (lo, hi) = (
+                _mm512_setr_epi64(0, 8, 1, 9, 2, 10, 3, 11),
+                _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15),
+            );
+            let inv = _mm512_set1_pd(1.0 / M);
+            for g in groups {
+                let x = _mm512_loadu_pd(cur.add(8 * g));
+                let xp = _mm512_loadu_pd(prev.add(8 * g));
+                let v = _mm512_sub_pd(x, xp);
+                let mut f = _mm512_setzero_pd();
+                for r in self.rows(g) {
+                    let at = &self.at[r];
+                    let p = |j: usize| _mm_loadu_pd(pc.add(2 * at[j] as usize));
+                    let two = |a: usize| {
+                        _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(p(a)), p(a + 1))
+                    };
+                    let a = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(two(0)), two(2));
+                    let b = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(two(4)), two(6));
+                    let (xj, vj) = (
+                        _mm512_permutex2var_pd(a, xs, b),
+                        _mm512_permutex2var_pd(a, vs, b),
+                    );
+                    f = Self::term(f, x, v, xj, vj);
+                }
+                let xn = _mm512_add_pd(
+                    _mm512_sub_pd(_mm512_add_pd(x, x), xp),
+                    _mm512_mul_pd(f, inv),
+                );
+                _mm512_storeu_pd(next.add(8 * g), xn);
+                let vn = _mm512_sub_pd(xn, x);
+                _mm512_storeu_pd(pn.add(16 * g), _mm512_permutex2var_pd(xn, lo, vn));
+                _mm512_storeu_pd(pn.add(16 * g + 8), _mm512_permutex2var_pd(xn, hi, vn));
+            }
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn step_cached(
+        &self,
+        groups: std::ops::Range<usize>,
+        cur: *const f64,
+        prev: *const f64,
+        next: *mut f64,
+        cache: *mut f64,
+    ) {
+        use std::arch::x86_64::*;
+        // SAFETY (the whole body): the caller's promise (`run`).
+        unsafe {
+            let inv = _mm512_set1_pd(1.0 / M);
+            for g in groups {
+                let x = _mm512_loadu_pd(cur.add(8 * g));
+                let xp = _mm512_loadu_pd(prev.add(8 * g));
+                let v = _mm512_sub_pd(x, xp);
+                let mut f = _mm512_setzero_pd();
+                for r in self.rows(g) {
+                    let at = &self.at[r];
+                    let p = |j: usize| *cur.add(at[j] as usize);
+                    let xj = _mm512_setr_pd(p(0), p(1), p(2), p(3), p(4), p(5), p(6), p(7));
+                    let c = cache.add(8 * r);
+                    let xjp = _mm512_loadu_pd(c);
+                    _mm512_storeu_pd(c, xj);
+                    f = Self::term(f, x, v, xj, _mm512_sub_pd(xj, xjp));
+                }
+                let xn = _mm512_add_pd(
+                    _mm512_sub_pd(_mm512_add_pd(x, x), xp),
+                    _mm512_mul_pd(f, inv),
+                );
+                _mm512_storeu_pd(next.add(8 * g), xn);
+            }
+        }
+    }
+
+    /// `f - (K (x - xj) + Z (v - vj))`, as the engine's REF term.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn term(
+        f: std::arch::x86_64::__m512d,
+        x: std::arch::x86_64::__m512d,
+        v: std::arch::x86_64::__m512d,
+        xj: std::arch::x86_64::__m512d,
+        vj: std::arch::x86_64::__m512d,
+    ) -> std::arch::x86_64::__m512d {
+        use std::arch::x86_64::*;
+        // SAFETY: the CPU has AVX-512F (the callers' target feature, this function being inlined
+        // into them).
+        unsafe {
+            let (k, z) = (_mm512_set1_pd(K), _mm512_set1_pd(Z));
+            let spring = _mm512_mul_pd(k, _mm512_sub_pd(x, xj));
+            let damper = _mm512_mul_pd(z, _mm512_sub_pd(v, vj));
+            _mm512_sub_pd(f, _mm512_add_pd(spring, damper))
+        }
+    }
+}
+
+/// `ceiling pull [N [T]]`: [`PullLayouts`] on a random network of N masses, each layout on 1 and
+/// T threads (alternating, median of [`RUNS`]), next to cordis on 1 and T threads.
+fn pull_layouts_mode(n: usize, threads: usize) {
+    let work = work();
+    let model = random(n, Law::Ref);
+    let layouts = PullLayouts::new(&model.net, model.masses);
+    let steps = (work / layouts.n as u64).max(MIN_STEPS) as usize;
+    let mass_steps = (layouts.n * steps) as f64;
+    let mut one = Engine::new(&model.net);
+    let mut many = Engine::new(&model.net);
+    many.set_threads(threads);
+    many.set_parallel_threshold(0);
+    let mut buf = vec![0.0; BLOCK * one.channels()];
+    let mut times: [Vec<f64>; 6] = Default::default();
+    let mut sums = Vec::new();
+    for _ in 0..RUNS {
+        for (i, (cached, t)) in [(false, 1), (true, 1), (false, threads), (true, threads)]
+            .into_iter()
+            .enumerate()
+        {
+            let Some((secs, sum)) = layouts.run(steps, t, cached) else {
+                println!("no AVX-512 on this CPU: no layouts to time");
+                return;
+            };
+            times[i].push(secs);
+            sums.push(sum);
+        }
+        timed(&mut times[4], || {
+            run_cordis(&mut one, black_box(steps as u64), &mut buf)
+        });
+        timed(&mut times[5], || {
+            run_cordis(&mut many, black_box(steps as u64), &mut buf)
+        });
+    }
+    let [p1, c1, pt, ct, e1, et] = times.map(median);
+    let rate = |t: f64| mass_steps / t;
+    println!(
+        "{} ({} MAS in groups, {} rows): {work:.3e} mass-steps per run, median of {RUNS}; load \
+         average {}; the layouts' bits {}\n\
+         pairs:  1 thread {:.3e}, {threads} threads {:.3e}: x{:.2}\n\
+         cached: 1 thread {:.3e}, {threads} threads {:.3e}: x{:.2}\n\
+         cordis: 1 thread {:.3e}, {threads} threads {:.3e}: x{:.2}\n\
+         cached / pairs: 1 thread {:.2}, {threads} threads {:.2}",
+        model.name,
+        layouts.n,
+        layouts.at.len(),
+        load_average(),
+        if sums.iter().all(|&s| s == sums[0]) {
+            "the same"
+        } else {
+            "DIFFERENT"
+        },
+        rate(p1),
+        rate(pt),
+        p1 / pt,
+        rate(c1),
+        rate(ct),
+        c1 / ct,
+        rate(e1),
+        rate(et),
+        e1 / et,
+        p1 / c1,
+        pt / ct,
+        work = work as f64
+    );
+}
+
 /// `ceiling [MODEL...]`: for each membrane, cordis against the two hand-specialised kernels of
 /// [`Stencil`]; for each random network, cordis and the generic baseline against [`Reads`].
 fn ceiling_mode(specs: &[Spec]) {
@@ -1366,7 +1684,10 @@ fn usage() -> ! {
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
          threads, default N = 100000 masses, T = 2)\n   \
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
-         models as netlists for the C generic kernel cref.c)"
+         models as netlists for the C generic kernel cref.c)\n   \
+         or: cargo bench -p cordis-core --bench engine -- ceiling MODEL... | ceiling threads [N \
+         [T]] | ceiling pull [N [T]]   (hand-written kernels: the membrane's stencils, the reads \
+         of a random network, on T threads, the pull step's two layouts)"
     );
     std::process::exit(2)
 }
@@ -1607,13 +1928,15 @@ fn main() {
         return threads_mode(num(1, 100_000), threads, args.get(3..).unwrap_or(&[]));
     }
     if args.first().map(String::as_str) == Some("ceiling") {
-        if args.get(1).map(String::as_str) == Some("threads") {
-            let num = |i: usize, default: usize, min: usize| {
-                (args.get(i)).map_or(default, |s| {
-                    (s.parse::<usize>().ok().filter(|&n| n >= min)).unwrap_or_else(|| usage())
-                })
-            };
-            return floor_threads_mode(num(2, 100_000, 9), num(3, 2, 1));
+        let num = |i: usize, default: usize, min: usize| {
+            (args.get(i)).map_or(default, |s| {
+                (s.parse::<usize>().ok().filter(|&n| n >= min)).unwrap_or_else(|| usage())
+            })
+        };
+        match args.get(1).map(String::as_str) {
+            Some("threads") => return floor_threads_mode(num(2, 100_000, 9), num(3, 2, 1)),
+            Some("pull") => return pull_layouts_mode(num(2, 10_000, 16), num(3, 2, 1)),
+            _ => {}
         }
         return ceiling_mode(&parse_args(&args[1..]));
     }
