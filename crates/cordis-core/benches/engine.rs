@@ -1208,8 +1208,9 @@ fn floor_threads_mode(n: usize, threads: usize) {
 ///
 /// Both compute the same operations on the same operands, so the same bits (checked).
 struct PullLayouts {
+    /// MAS (the buffers hold whole groups: the last group's slots past `n` are padding)
     n: usize,
-    /// per row: the other ends (material indices)
+    /// per row: the other ends (their slots)
     at: Vec<[u32; 8]>,
     /// per group: the end of its rows in `at`
     ends: Vec<usize>,
@@ -1242,11 +1243,17 @@ impl PullLayouts {
             slot[i] = s as u32;
         }
         let (mut at, mut bounds) = (Vec::new(), Vec::new());
-        for g in 0..n / 8 {
-            let lanes = &mas[8 * g..8 * g + 8];
+        // (the last group, when partial, padded with slots of no MAS, which read themselves)
+        for g in 0..n.div_ceil(8) {
+            let lanes = &mas[8 * g..(8 * g + 8).min(n)];
             let rows = lanes.iter().map(|&i| ends[i].len()).max().unwrap_or(0);
             for r in 0..rows {
-                let other = |j: usize| ends[lanes[j]].get(r).map(|&o| slot[o as usize]);
+                let other = |j: usize| {
+                    lanes
+                        .get(j)
+                        .and_then(|&i| ends[i].get(r))
+                        .map(|&o| slot[o as usize])
+                };
                 at.push(std::array::from_fn(|j| {
                     other(j).unwrap_or((8 * g + j) as u32)
                 }));
@@ -1254,7 +1261,7 @@ impl PullLayouts {
             bounds.push(at.len());
         }
         PullLayouts {
-            n: n / 8 * 8,
+            n,
             at,
             ends: bounds,
         }
@@ -1275,7 +1282,8 @@ impl PullLayouts {
             if !std::is_x86_feature_detected!("avx512f") {
                 return None;
             }
-            let n = self.n;
+            // (whole groups: the slots past the MAS are padding)
+            let n = 8 * self.ends.len();
             let x0 = |i: usize| (i % 7) as f64 * 1e-3;
             // x(n) in pos[0], x(n-1) = 0 in pos[2]
             let mut pos: Vec<Vec<f64>> = vec![(0..n).map(x0).collect(), vec![0.0; n], vec![0.0; n]];
@@ -1480,7 +1488,7 @@ fn pull_layouts_mode(n: usize, threads: usize) {
     let [p1, c1, pt, ct, e1, et] = times.map(median);
     let rate = |t: f64| mass_steps / t;
     println!(
-        "{} ({} MAS in groups, {} rows): {work:.3e} mass-steps per run, median of {RUNS}; load \
+        "{} ({} MAS, {} rows): {work:.3e} mass-steps per run, median of {RUNS}; load \
          average {}; the layouts' bits {}\n\
          pairs:  1 thread {:.3e}, {threads} threads {:.3e}: x{:.2}\n\
          cached: 1 thread {:.3e}, {threads} threads {:.3e}: x{:.2}\n\
