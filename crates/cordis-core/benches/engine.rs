@@ -1518,6 +1518,395 @@ fn pull_layouts_mode(n: usize, threads: usize) {
     );
 }
 
+/// A curve's segment table for [`curve_eval`], padded to `P` segments (8, 16 or 32, a power of two
+/// as the engine pads), its last point repeated with slope `0.0`, and what a guess of the
+/// segment needs: a uniform grid of `P` buckets over `[x[0], x[n-1]]` and, for each bucket, the
+/// segment of the least `x` that falls in it. Hand-written for `ceiling curves`, apart from the
+/// engine's `WideCurve` and `WideLong` (which the bench cannot reach), with their arithmetic.
+struct CurveLanes {
+    p: usize,
+    /// `x[0..P]`, `y[0..P]`, `slope[0..P]`, `g[0..P]` (each bucket's segment, as `f64` bits),
+    /// `x[i + 1]` for `i` in `0..P` (infinity past the last point)
+    table: Vec<f64>,
+    /// `x[2 j]`, `j` in `0..16` (the 32-segment search's coarse abscissas)
+    coarse: [f64; 16],
+    first: f64,
+    last: (f64, f64),
+    scale: f64,
+    /// whether no bucket holds more than one abscissa inside it (else the guess is not exact)
+    exact: bool,
+    /// each bucket's least `x`
+    edges: Vec<f64>,
+}
+
+impl CurveLanes {
+    fn new(c: &Curve) -> CurveLanes {
+        let pts: Vec<(f64, f64)> = c.points().collect();
+        let n = pts.len();
+        assert!((2..=33).contains(&n), "a curve of 2 to 33 points");
+        let p = if n <= 9 {
+            8
+        } else if n <= 17 {
+            16
+        } else {
+            32
+        };
+        let at = |i: usize| pts[i.min(n - 1)];
+        // (`Curve::new`'s slopes, the same bits)
+        let slope = |i: usize| {
+            let (a, b) = (pts[i], pts[i + 1]);
+            if b.0 > a.0 {
+                (b.1 - a.1) / (b.0 - a.0)
+            } else {
+                0.0
+            }
+        };
+        let first = pts[0].0;
+        let scale = p as f64 / (pts[n - 1].0 - first);
+        // the segment of `x`: the last of `0..P` whose abscissa is `<= x` (`x` raised to x[0])
+        let segment = |x: f64| (0..p).rev().find(|&j| at(j).0 <= x.max(first)).unwrap_or(0);
+        // the least `x` of bucket `b`: bisection over the doubles in order (the bucket of `x`
+        // never decreases as `x` grows: a subtraction, a product and a `min` are monotonic)
+        let key = |x: f64| {
+            let b = x.to_bits() as i64;
+            if b < 0 {
+                i64::MIN - b
+            } else {
+                b
+            }
+        };
+        let unkey = |k: i64| {
+            f64::from_bits(if k < 0 {
+                (i64::MIN - k) as u64
+            } else {
+                k as u64
+            })
+        };
+        let least = |b: usize| {
+            let (mut lo, mut hi) = (key(first), key(f64::MAX));
+            while lo < hi {
+                let mid = (i128::from(lo) + i128::from(hi)).div_euclid(2) as i64;
+                if curve_bucket(first, scale, p, unkey(mid)) >= b {
+                    hi = mid;
+                } else {
+                    lo = mid + 1;
+                }
+            }
+            unkey(hi)
+        };
+        let starts: Vec<f64> = (0..p).map(least).collect();
+        let exact = (0..p).all(|b| {
+            let end = if b + 1 < p {
+                unkey(key(starts[b + 1]) - 1)
+            } else {
+                pts[n - 1].0
+            };
+            segment(end).min(n - 2) <= segment(starts[b]) + 1
+        });
+        let mut table = Vec::with_capacity(5 * p);
+        table.extend((0..p).map(|i| at(i).0));
+        table.extend((0..p).map(|i| at(i).1));
+        table.extend((0..p).map(|i| if i + 1 < n { slope(i) } else { 0.0 }));
+        table.extend(starts.iter().map(|&x| f64::from_bits(segment(x) as u64)));
+        table.extend((0..p).map(|i| {
+            if i + 1 < n {
+                pts[i + 1].0
+            } else {
+                f64::INFINITY
+            }
+        }));
+        CurveLanes {
+            p,
+            table,
+            coarse: std::array::from_fn(|j| at(2 * j).0),
+            first,
+            last: pts[n - 1],
+            scale,
+            exact,
+            edges: starts,
+        }
+    }
+}
+
+/// The bucket of `x` on a grid of `p` buckets from `first`, `scale` buckets a unit: the scalar
+/// form of [`curve_eval`]'s guess, the same operations.
+fn curve_bucket(first: f64, scale: f64, p: usize, x: f64) -> usize {
+    ((x.max(first) - first) * scale).min((p - 1) as f64) as usize
+}
+
+/// [`CurveLanes`] in vectors: its five tables (each in four vectors of eight, the first one or
+/// two repeated where `P` is 8 or 16), the coarse abscissas and the numbers broadcast.
+#[cfg(target_arch = "x86_64")]
+struct CurveVecs {
+    t: [[std::arch::x86_64::__m512d; 4]; 5],
+    coarse: [std::arch::x86_64::__m512d; 4],
+    /// `x[0]`, `x[P/2]`, `x[n-1]`, `y[n-1]`, the buckets a unit, `P - 1`
+    first: std::arch::x86_64::__m512d,
+    mid: std::arch::x86_64::__m512d,
+    xl: std::arch::x86_64::__m512d,
+    yl: std::arch::x86_64::__m512d,
+    scale: std::arch::x86_64::__m512d,
+    top: std::arch::x86_64::__m512d,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl CurveVecs {
+    /// `t[i]` of table `t` in each lane: one `vpermpd` for 8 numbers, one `vpermt2pd` for 16,
+    /// two and a select for 32 (each index below `P`). Like every method here,
+    /// `#[inline(always)]` without target features: compiled with those of [`curve_eval`].
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512F.
+    #[inline(always)]
+    unsafe fn look<const P: usize>(
+        t: &[std::arch::x86_64::__m512d; 4],
+        i: std::arch::x86_64::__m512i,
+    ) -> std::arch::x86_64::__m512d {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller's promise.
+        unsafe {
+            if P == 8 {
+                return _mm512_permutexvar_pd(i, t[0]);
+            }
+            let a = _mm512_permutex2var_pd(t[0], i, t[1]);
+            if P == 16 {
+                return a;
+            }
+            let b = _mm512_permutex2var_pd(t[2], i, t[3]);
+            _mm512_mask_mov_pd(a, _mm512_cmpge_epi64_mask(i, _mm512_set1_epi64(16)), b)
+        }
+    }
+
+    /// One halving of the search: `i + h` where `t[i + h] <= x`.
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512F.
+    #[inline(always)]
+    unsafe fn halve<const P: usize>(
+        i: std::arch::x86_64::__m512i,
+        h: i64,
+        t: &[std::arch::x86_64::__m512d; 4],
+        x: std::arch::x86_64::__m512d,
+    ) -> std::arch::x86_64::__m512i {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller's promise.
+        unsafe {
+            let next = _mm512_add_epi64(i, _mm512_set1_epi64(h));
+            let m = _mm512_cmp_pd_mask::<_CMP_LE_OQ>(Self::look::<P>(t, next), x);
+            _mm512_mask_mov_epi64(i, m, next)
+        }
+    }
+
+    /// The curve at each lane of `x` (see [`curve_eval`]).
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512F and AVX-512DQ.
+    #[inline(always)]
+    unsafe fn eval<const P: usize, const GUESS: bool>(
+        &self,
+        x: std::arch::x86_64::__m512d,
+    ) -> std::arch::x86_64::__m512d {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller's promise.
+        unsafe {
+            let x = _mm512_max_pd(x, self.first);
+            let [xs, ys, slopes, starts, nexts] = &self.t;
+            let i = if GUESS {
+                let b = _mm512_min_pd(
+                    _mm512_mul_pd(_mm512_sub_pd(x, self.first), self.scale),
+                    self.top,
+                );
+                let s = _mm512_castpd_si512(Self::look::<P>(starts, _mm512_cvttpd_epi64(b)));
+                let up = _mm512_cmp_pd_mask::<_CMP_LE_OQ>(Self::look::<P>(nexts, s), x);
+                _mm512_mask_add_epi64(s, up, s, _mm512_set1_epi64(1))
+            } else {
+                let half = _mm512_cmp_pd_mask::<_CMP_LE_OQ>(self.mid, x);
+                let i = _mm512_maskz_mov_epi64(half, _mm512_set1_epi64(P.min(16) as i64 / 2));
+                let halve = Self::halve::<P>;
+                if P == 8 {
+                    halve(halve(i, 2, xs, x), 1, xs, x)
+                } else if P == 16 {
+                    halve(halve(halve(i, 4, xs, x), 2, xs, x), 1, xs, x)
+                } else {
+                    let c = &self.coarse;
+                    let j = halve(halve(halve(i, 4, c, x), 2, c, x), 1, c, x);
+                    halve(_mm512_slli_epi64::<1>(j), 1, xs, x)
+                }
+            };
+            let look = Self::look::<P>;
+            let (x0, y, s) = (look(xs, i), look(ys, i), look(slopes, i));
+            let along = _mm512_add_pd(y, _mm512_mul_pd(_mm512_sub_pd(x, x0), s));
+            _mm512_mask_mov_pd(self.yl, _mm512_cmp_pd_mask::<_CMP_LT_OQ>(x, self.xl), along)
+        }
+    }
+}
+
+/// `c` at each of `xs` (whole blocks of eight), by the engine's binary search (`GUESS` false:
+/// as `WideCurve::eval` for 8 and 16, `WideLong::eval` for 32, the first halving against
+/// `x[P/2]` broadcast) or by a guess from the buckets corrected by one compare; then the
+/// segment's numbers looked up and `y + (x - x0) slope`, `y[n-1]` at or past the last point
+/// (`x` first raised to `x[0]`, a NaN too, as the engine does). Returns the sum of the values
+/// over `rounds` passes and, for one pass, their bits.
+///
+/// # Safety
+/// The CPU must have AVX-512F and AVX-512DQ.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512dq")]
+unsafe fn curve_eval<const P: usize, const GUESS: bool>(
+    c: &CurveLanes,
+    xs: &[f64],
+    rounds: usize,
+) -> (f64, Vec<u64>) {
+    use std::arch::x86_64::*;
+    let p = c.p;
+    assert!(c.table.len() == 5 * p && p == P && [8, 16, 32].contains(&p));
+    // SAFETY: every load reads eight numbers within `table` (asserted: table `k` is its numbers
+    // `k P .. (k + 1) P`, and `j` below `P / 8`), `coarse` or a block of `xs`; the CPU has the
+    // instructions (the caller's promise).
+    unsafe {
+        let mut t = [[_mm512_setzero_pd(); 4]; 5];
+        for (k, tk) in t.iter_mut().enumerate() {
+            for (j, v) in tk.iter_mut().enumerate() {
+                *v = _mm512_loadu_pd(c.table.as_ptr().add(k * p + 8 * (j % (p / 8))));
+            }
+        }
+        let lo = _mm512_loadu_pd(c.coarse.as_ptr());
+        let hi = _mm512_loadu_pd(c.coarse.as_ptr().add(8));
+        let v = CurveVecs {
+            t,
+            coarse: [lo, hi, lo, hi],
+            first: _mm512_set1_pd(c.first),
+            mid: _mm512_set1_pd(c.table[p / 2]),
+            xl: _mm512_set1_pd(c.last.0),
+            yl: _mm512_set1_pd(c.last.1),
+            scale: _mm512_set1_pd(c.scale),
+            top: _mm512_set1_pd((p - 1) as f64),
+        };
+        let mut bits = Vec::new();
+        let mut acc = _mm512_setzero_pd();
+        for _ in 0..rounds {
+            for b in xs.chunks_exact(8) {
+                let f = v.eval::<P, GUESS>(_mm512_loadu_pd(b.as_ptr()));
+                if rounds == 1 {
+                    let mut out = [0.0; 8];
+                    _mm512_storeu_pd(out.as_mut_ptr(), f);
+                    bits.extend(out.map(f64::to_bits));
+                }
+                acc = _mm512_add_pd(acc, f);
+            }
+        }
+        (_mm512_reduce_add_pd(acc), bits)
+    }
+}
+
+/// [`curve_eval`] compiled for `c`'s `P` and the search or the guess.
+///
+/// # Safety
+/// The CPU must have AVX-512F and AVX-512DQ.
+#[cfg(target_arch = "x86_64")]
+unsafe fn curve_run(c: &CurveLanes, xs: &[f64], guess: bool, rounds: usize) -> (f64, Vec<u64>) {
+    // SAFETY: the caller's promise.
+    unsafe {
+        match (c.p, guess) {
+            (8, false) => curve_eval::<8, false>(c, xs, rounds),
+            (8, true) => curve_eval::<8, true>(c, xs, rounds),
+            (16, false) => curve_eval::<16, false>(c, xs, rounds),
+            (16, true) => curve_eval::<16, true>(c, xs, rounds),
+            (32, false) => curve_eval::<32, false>(c, xs, rounds),
+            _ => curve_eval::<32, true>(c, xs, rounds),
+        }
+    }
+}
+
+/// `ceiling curves`: the stiffness curves of `lnl-drawn` (7 points, padded to 8), `lnl-fine`
+/// (13, padded to 16) and `lnl-long` (33 points, 32 segments) evaluated eight lanes at a time
+/// by [`curve_eval`], by the engine's binary search and by a guess from a uniform grid corrected
+/// by one compare; both checked against `Curve::eval`'s bits, then timed on 4,096 stretches
+/// within ±2 (as the bench's networks' stretches) and within ±2.5 L (every segment),
+/// alternating, median of [`RUNS`].
+fn curves_mode() {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if !(std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512dq"))
+        {
+            println!("no AVX-512 on this CPU: no curves to time");
+            return;
+        }
+        let mut rng = Lcg(0x00c0_4d15_2026_1201);
+        let mut uniform = |w: f64| (rng.below(1 << 30) as f64 / f64::from(1 << 30) - 0.5) * w;
+        println!("LNL stiffness curves, eight lanes at a time; evaluations/s, median of {RUNS}");
+        let curves = [
+            ("drawn (7 points)", drawn(K)),
+            ("fine (13 points)", fine(K)),
+            ("long (33 points)", sampled(K)),
+        ];
+        for (name, law) in curves {
+            let Interaction::Lnl { lk, .. } = law else {
+                unreachable!("an LNL link")
+            };
+            let c = CurveLanes::new(&lk);
+            let mut xs = vec![
+                f64::NAN,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                0.0,
+                -0.0,
+                f64::MAX,
+            ];
+            for (x, _) in lk.points() {
+                xs.extend([x, x.next_up(), x.next_down()]);
+            }
+            for &e in &c.edges {
+                xs.extend([e, e.next_down(), e.next_up()]);
+            }
+            xs.extend((0..100_000).map(|_| uniform(6.0 * LNL_L)));
+            xs.resize(xs.len().next_multiple_of(8), 0.0);
+            let want: Vec<u64> = xs.iter().map(|&x| lk.eval(x).to_bits()).collect();
+            // SAFETY: the CPU has AVX-512F and DQ (checked above).
+            let same = |g: bool| unsafe { curve_run(&c, &xs, g, 1) }.1 == want;
+            println!(
+                "{name}: {} segments, buckets {}; the search's bits {}, the guess's {}",
+                c.p,
+                if c.exact {
+                    "of at most one abscissa inside"
+                } else {
+                    "NOT EXACT"
+                },
+                if same(false) {
+                    "the curve's"
+                } else {
+                    "DIFFERENT"
+                },
+                if same(true) {
+                    "the curve's"
+                } else {
+                    "DIFFERENT"
+                },
+            );
+            for (what, width) in [("within ±2", 4.0), ("within ±2.5 L", 5.0 * LNL_L)] {
+                let xs: Vec<f64> = (0..4096).map(|_| uniform(width)).collect();
+                let rounds = (work() / 4096).max(1) as usize;
+                let (mut ts, mut tg) = (Vec::new(), Vec::new());
+                for _ in 0..RUNS {
+                    // SAFETY: as above.
+                    timed(&mut ts, || unsafe { curve_run(&c, &xs, false, rounds) });
+                    timed(&mut tg, || unsafe { curve_run(&c, &xs, true, rounds) });
+                }
+                let evals = (4096 * rounds) as f64;
+                let (ts, tg) = (median(ts), median(tg));
+                println!(
+                    "  {what}: search {:.3e}, guess {:.3e}: guess / search {:.2}",
+                    evals / ts,
+                    evals / tg,
+                    ts / tg
+                );
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    println!("no AVX-512 on this CPU: no curves to time");
+}
+
 /// `ceiling [MODEL...]`: for each membrane, cordis against the two hand-specialised kernels of
 /// [`Stencil`]; for each random network, cordis and the generic baseline against [`Reads`].
 fn ceiling_mode(specs: &[Spec]) {
@@ -1694,8 +2083,9 @@ fn usage() -> ! {
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
          models as netlists for the C generic kernel cref.c)\n   \
          or: cargo bench -p cordis-core --bench engine -- ceiling MODEL... | ceiling threads [N \
-         [T]] | ceiling pull [N [T]]   (hand-written kernels: the membrane's stencils, the reads \
-         of a random network, on T threads, the pull step's two layouts)"
+         [T]] | ceiling pull [N [T]] | ceiling curves   (hand-written kernels: the membrane's \
+         stencils, the reads of a random network, on T threads, the pull step's two layouts, \
+         two searches of an LNL curve's segment)"
     );
     std::process::exit(2)
 }
@@ -1944,6 +2334,7 @@ fn main() {
         match args.get(1).map(String::as_str) {
             Some("threads") => return floor_threads_mode(num(2, 100_000, 9), num(3, 2, 1)),
             Some("pull") => return pull_layouts_mode(num(2, 10_000, 16), num(3, 2, 1)),
+            Some("curves") => return curves_mode(),
             _ => {}
         }
         return ceiling_mode(&parse_args(&args[1..]));
