@@ -1523,6 +1523,7 @@ fn pull_layouts_mode(n: usize, threads: usize) {
 /// segment needs: a uniform grid of `P` buckets over `[x[0], x[n-1]]` and, for each bucket, the
 /// segment of the least `x` that falls in it. Hand-written for `ceiling curves`, apart from the
 /// engine's `WideCurve` and `WideLong` (which the bench cannot reach), with their arithmetic.
+#[cfg(target_arch = "x86_64")]
 struct CurveLanes {
     p: usize,
     /// `x[0..P]`, `y[0..P]`, `slope[0..P]`, `g[0..P]` (each bucket's segment, as `f64` bits),
@@ -1539,6 +1540,7 @@ struct CurveLanes {
     edges: Vec<f64>,
 }
 
+#[cfg(target_arch = "x86_64")]
 impl CurveLanes {
     fn new(c: &Curve) -> CurveLanes {
         let pts: Vec<(f64, f64)> = c.points().collect();
@@ -1630,6 +1632,7 @@ impl CurveLanes {
 
 /// The bucket of `x` on a grid of `p` buckets from `first`, `scale` buckets a unit: the scalar
 /// form of [`curve_eval`]'s guess, the same operations.
+#[cfg(target_arch = "x86_64")]
 fn curve_bucket(first: f64, scale: f64, p: usize, x: f64) -> usize {
     ((x.max(first) - first) * scale).min((p - 1) as f64) as usize
 }
