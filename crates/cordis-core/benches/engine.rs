@@ -1910,6 +1910,60 @@ fn curves_mode() {
     println!("no AVX-512 on this CPU: no curves to time");
 }
 
+/// `ceiling signs`: how often the links of `random-lnl-long 10000` change the sign of their
+/// stretch `x(b) - x(a)` (their curves' breakpoint at 0) from one step to the next over steps
+/// 3,001 to 4,000, and how often a row of eight lanes does (materials in groups of eight in
+/// declaration order, a row the k-th link end of each, ends in the links' order): what keeping
+/// each link's segment of the step before would find unchanged.
+fn signs_mode() {
+    let model = random(10_000, Law::LnlLong);
+    let net = &model.net;
+    let mut engine = Engine::new(net);
+    let mut buf = vec![0.0; engine.channels()];
+    let n = net.materials.len();
+    let mut ends: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (i, l) in net.links.iter().enumerate() {
+        ends[l.a.index()].push(i);
+        ends[l.b.index()].push(i);
+    }
+    let negative = |e: &Engine| -> Vec<bool> {
+        (net.links.iter())
+            .map(|l| e.position(l.b) - e.position(l.a) < 0.0)
+            .collect()
+    };
+    let (mut links, mut rows, mut steps) = (0.0, 0.0, 0.0);
+    let mut before = negative(&engine);
+    for step in 1..=4000 {
+        engine
+            .process(1, &mut buf)
+            .expect("the bench's network does not blow up");
+        let now = negative(&engine);
+        if step > 3000 {
+            let changed: Vec<bool> = before.iter().zip(&now).map(|(a, b)| a != b).collect();
+            links += changed.iter().filter(|&&c| c).count() as f64 / changed.len() as f64;
+            let (mut any, mut all) = (0usize, 0usize);
+            for group in ends.chunks(8) {
+                let degree = group.iter().map(Vec::len).max().unwrap_or(0);
+                for k in 0..degree {
+                    all += 1;
+                    let lane = |e: &Vec<usize>| e.get(k).is_some_and(|&l| changed[l]);
+                    any += usize::from(group.iter().any(lane));
+                }
+            }
+            rows += any as f64 / all as f64;
+            steps += 1.0;
+        }
+        before = now;
+    }
+    println!(
+        "{}: over steps 3,001 to 4,000, links changing the sign of their stretch at a step \
+         {:.1} %, rows of eight with such a lane {:.1} %",
+        model.name,
+        100.0 * links / steps,
+        100.0 * rows / steps
+    );
+}
+
 /// `ceiling [MODEL...]`: for each membrane, cordis against the two hand-specialised kernels of
 /// [`Stencil`]; for each random network, cordis and the generic baseline against [`Reads`].
 fn ceiling_mode(specs: &[Spec]) {
@@ -2086,9 +2140,9 @@ fn usage() -> ! {
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
          models as netlists for the C generic kernel cref.c)\n   \
          or: cargo bench -p cordis-core --bench engine -- ceiling MODEL... | ceiling threads [N \
-         [T]] | ceiling pull [N [T]] | ceiling curves   (hand-written kernels: the membrane's \
-         stencils, the reads of a random network, on T threads, the pull step's two layouts, \
-         two searches of an LNL curve's segment)"
+         [T]] | ceiling pull [N [T]] | ceiling curves | ceiling signs   (hand-written kernels: the \
+         membrane's stencils, the reads of a random network, on T threads, the pull step's two \
+         layouts, two searches of an LNL curve's segment; how often LNL links change segment)"
     );
     std::process::exit(2)
 }
@@ -2338,6 +2392,7 @@ fn main() {
             Some("threads") => return floor_threads_mode(num(2, 100_000, 9), num(3, 2, 1)),
             Some("pull") => return pull_layouts_mode(num(2, 10_000, 16), num(3, 2, 1)),
             Some("curves") => return curves_mode(),
+            Some("signs") => return signs_mode(),
             _ => {}
         }
         return ceiling_mode(&parse_args(&args[1..]));
