@@ -294,16 +294,21 @@ impl<V: Vector, const N: usize> WideCurve<V, N> {
 /// A curve of any number of points prepared for the vector paths (the engine gives them curves
 /// of more points than an [`ExactCurve`] holds): [`LongCurve::wide`] evaluates it several
 /// abscissas at a time, [`Curve::eval`]'s bits, finding each lane's segment by a binary search of
-/// indexed loads. The abscissas, values and slopes are each padded to `P`, the smallest power of
-/// two at least `n - 1` (and at least 1), with the last point repeated (slope `0.0`).
+/// indexed loads, or by a guess from a uniform grid ([`Grid`]) corrected by one compare. The
+/// abscissas, values and slopes are each padded to `P`, the smallest power of two at least `n -
+/// 1` (and at least 1), with the last point repeated (slope `0.0`).
 #[derive(Clone, Debug)]
 pub(crate) struct LongCurve {
     /// Points (`n`).
     n: usize,
     /// `P`.
     segs: usize,
-    /// `x[0..P]`, `y[0..P]`, then `slope[0..P]` (a zero curve: `[0.0; 3]`).
+    /// `x[0..P]`, `y[0..P]`, `slope[0..P]`, then the guess's: each bucket's segment
+    /// `seg[0..P]` ([`Grid`], an index's bits as an `f64`) and the next abscissas `next[0..P]`,
+    /// `x[i + 1]` for `i + 1 < min(n, P)`, NaN past them (a zero curve: `[0.0; 5]`).
     table: Box<[f64]>,
+    /// The grid's buckets a unit of `x` where the guess gives the search's segment ([`Grid`]).
+    scale: Option<f64>,
     /// The last point, `(x[n-1], y[n-1])` (`P` may be `n - 1`, the table without it).
     last: (f64, f64),
     /// [`LongCurve::widens`], decided from the curve's own points (a 2-point curve's table has
@@ -317,13 +322,25 @@ impl LongCurve {
         let (xs, ys, slopes) = (c.xs(), c.ys(), c.slopes());
         let n = xs.len();
         let segs = n.saturating_sub(1).max(1).next_power_of_two();
-        let mut table = vec![0.0; 3 * segs];
+        let mut table = vec![0.0; 5 * segs];
+        let mut scale = None;
         if n > 0 {
             for i in 0..segs {
                 let j = i.min(n - 1);
                 table[i] = xs[j];
                 table[segs + i] = ys[j];
                 table[2 * segs + i] = if i + 1 < n { slopes[i] } else { 0.0 };
+                table[4 * segs + i] = if i + 1 < n.min(segs) {
+                    xs[i + 1]
+                } else {
+                    f64::NAN
+                };
+            }
+            if let Some(grid) = Grid::new(&table[..segs], xs[n - 1]) {
+                for (b, &edge) in grid.edges.iter().enumerate() {
+                    table[3 * segs + b] = f64::from_bits(grid.segment(edge) as u64);
+                }
+                scale = Some(grid.scale);
             }
         }
         let widens = n < 2
@@ -332,6 +349,7 @@ impl LongCurve {
             n,
             segs,
             table: table.into(),
+            scale,
             last: n.checked_sub(1).map_or((0.0, 0.0), |l| (xs[l], ys[l])),
             widens,
         }
@@ -354,11 +372,30 @@ impl LongCurve {
             || (self.table[s..2 * s].iter().all(not_minus_zero) && not_minus_zero(&self.last.1))
     }
 
+    /// Whether [`WideLong::eval`] guesses each lane's segment ([`Grid`]): where the grid is
+    /// exact and the table is of `2 V::N` numbers or more (smaller ones are searched in
+    /// registers).
+    #[cfg(target_arch = "x86_64")]
+    fn guesses<V: Vector>(&self) -> bool {
+        self.scale.is_some() && self.segs >= 2 * V::N
+    }
+
+    /// The curve without its grid: [`WideLong::eval`] searches whatever the curve (for the
+    /// tests, which check both).
+    #[cfg(test)]
+    fn searched(&self) -> LongCurve {
+        LongCurve {
+            scale: None,
+            ..self.clone()
+        }
+    }
+
     /// Whether `other` has the same points, bit for bit.
     pub(crate) fn same_bits(&self, other: &LongCurve) -> bool {
         let bits = |(x, y): (f64, f64)| (x.to_bits(), y.to_bits());
         self.n == other.n
             && self.segs == other.segs
+            && self.scale.map(f64::to_bits) == other.scale.map(f64::to_bits)
             && bits(self.last) == bits(other.last)
             && (self.table.iter().zip(other.table.iter())).all(|(a, b)| a.to_bits() == b.to_bits())
     }
@@ -398,7 +435,108 @@ impl LongCurve {
             mid: V::splat(t[s / 2]),
             x_last: V::splat(self.last.0),
             y_last: V::splat(self.last.1),
+            guess: self.guesses::<V>(),
+            scale: V::splat(self.scale.unwrap_or(0.0)),
+            top: V::splat((s - 1) as f64),
         }
+    }
+}
+
+/// The uniform grid from which [`WideLong::eval`] guesses a lane's segment: `P` buckets over
+/// `[x[0], x[n-1]]`, `scale = P / (x[n-1] - x[0])` buckets a unit, the bucket of `x >= x[0]`
+/// being `b(x) = min((x - x[0]) scale, P - 1)` truncated (each operation rounded, as the vector
+/// code does them), and each bucket's *edge*, its least `x`. The bucket never decreases as `x`
+/// grows (a subtraction, a product by a positive number, a `min` and a truncation each keep
+/// the order), so the edge is found by bisection over the doubles in order, and every `x` of
+/// bucket `b` lies in `edge[b] <= x < edge[b + 1]`.
+///
+/// The guess takes the segment of the bucket's edge, `s = seg(edge[b])` (`seg(x)`: the last of
+/// `0..P` whose abscissa is `<= x`), then `s + 1` where `x[s + 1] <= x`. The grid is *exact*
+/// when in every bucket the segments of its `x` below `x[n-1]` are `s` or `s + 1`: then the
+/// guess is `seg(x)` wherever `x < x[n-1]` (`seg(x) >= s`, the segments never decreasing; if it
+/// is `s`, `x[s + 1] > x`, the last abscissa `<= x` being `x[s]`, and the table's `next[s]` is
+/// that abscissa or NaN, never `<= x`; if it is `s + 1`, `s + 1 < n - 1` and `next[s] = x[s +
+/// 1] <= x`). Past the last point the value is `y[n-1]` whatever the segment, and the guess is
+/// still an index below `P` (`next[P-1]` is NaN). A curve whose abscissas crowd (several in one
+/// bucket, a jump of two points or more inside one) has no exact grid and keeps the search.
+struct Grid {
+    scale: f64,
+    /// `x[0..P]`, padded
+    xs: Vec<f64>,
+    edges: Vec<f64>,
+}
+
+impl Grid {
+    /// The grid of the padded abscissas `xs` (`P` of them) whose last point is at `last`, if it
+    /// is exact; `None` for a curve of one point (no width) or one whose scale is not a finite
+    /// positive number.
+    fn new(xs: &[f64], last: f64) -> Option<Grid> {
+        let p = xs.len();
+        let scale = p as f64 / (last - xs[0]);
+        if !(scale.is_finite() && scale > 0.0) {
+            return None;
+        }
+        let mut grid = Grid {
+            scale,
+            xs: xs.to_vec(),
+            edges: Vec::with_capacity(p),
+        };
+        // (the doubles in order as integers: a negative double's bits count down)
+        let key = |x: f64| {
+            let b = x.to_bits() as i64;
+            if b < 0 {
+                i64::MIN - b
+            } else {
+                b
+            }
+        };
+        let unkey = |k: i64| {
+            f64::from_bits(if k < 0 {
+                (i64::MIN - k) as u64
+            } else {
+                k as u64
+            })
+        };
+        let (bottom, top) = (key(xs[0]), key(f64::MAX));
+        for b in 0..p {
+            // (bisection between 64 doubles either side of `x[0] + b / scale` where the edge is
+            // between them, as it is unless rounding moved it far: a curve is loaded in
+            // microseconds; else over all the doubles from `x[0]`)
+            let near = key(xs[0] + b as f64 / scale);
+            let (lo, hi) = ((near - 64).max(bottom), (near + 64).min(top));
+            let brackets = grid.bucket(unkey(lo)) < b && grid.bucket(unkey(hi)) >= b;
+            let (mut lo, mut hi) = if brackets { (lo, hi) } else { (bottom, top) };
+            while lo < hi {
+                let mid = ((i128::from(lo) + i128::from(hi)) >> 1) as i64;
+                if grid.bucket(unkey(mid)) >= b {
+                    hi = mid;
+                } else {
+                    lo = mid + 1;
+                }
+            }
+            grid.edges.push(unkey(hi));
+        }
+        // the segments below the last point: before the first abscissa at `last`
+        let most = xs.partition_point(|&a| a < last) - 1;
+        let exact = (0..p).all(|b| {
+            let end = grid
+                .edges
+                .get(b + 1)
+                .map_or(f64::INFINITY, |e| e.next_down());
+            grid.segment(end).min(most) <= grid.segment(grid.edges[b]) + 1
+        });
+        exact.then_some(grid)
+    }
+
+    /// The bucket of `x`: [`WideLong::eval`]'s operations, one at a time.
+    fn bucket(&self, x: f64) -> usize {
+        let (first, top) = (self.xs[0], (self.xs.len() - 1) as f64);
+        ((x.max(first) - first) * self.scale).min(top) as usize
+    }
+
+    /// The last of `0..P` whose abscissa is `<= x` (0 below the first).
+    fn segment(&self, x: f64) -> usize {
+        self.xs.partition_point(|&a| a <= x).max(1) - 1
     }
 }
 
@@ -417,6 +555,10 @@ pub(crate) struct WideLong<'a, V: Vector> {
     mid: V,
     x_last: V,
     y_last: V,
+    /// [`LongCurve::guesses`], and the grid's buckets a unit and `P - 1` in every lane.
+    guess: bool,
+    scale: V,
+    top: V,
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -438,6 +580,13 @@ impl<V: Vector> WideLong<'_, V> {
     /// point (the raised `x` is never NaN). Every index is below `P` (a sum of distinct
     /// halvings), within the table.
     ///
+    /// Where the curve [`LongCurve::guesses`], the segment is guessed instead ([`Grid`]: the
+    /// segment of the bucket's edge, plus one where the next abscissa is `<= x`), which is the
+    /// search's wherever `x < x[n-1]`, and an index below `P` elsewhere: the same bits. The
+    /// bucket is computed from the raised `x` (never NaN; at `+inf` the product is `+inf` and
+    /// the `min` gives `P - 1`) by the operations of `Grid::bucket`: a number from `+0.0` or
+    /// `-0.0` (`x = x[0]`) to `P - 1`, truncated.
+    ///
     /// # Safety
     /// The CPU must have `V`'s instructions (see [`Vector`]).
     #[inline(always)]
@@ -450,7 +599,12 @@ impl<V: Vector> WideLong<'_, V> {
         let c = 2 * V::N;
         let [_, ys, slopes] = self.lookup;
         let xs = self.lookup[0];
-        let (x0, y, slope) = if s <= c {
+        let (x0, y, slope) = if self.guess {
+            let b = x.sub(self.x0).mul(self.scale).min(self.top).truncated();
+            let first = self.fetch(3, b).index_bits();
+            let i = V::moved(first, self.fetch(4, first).le(x), V::plus(first, 1));
+            (self.fetch(0, i), self.fetch(1, i), self.fetch(2, i))
+        } else if s <= c {
             let i = self.search(x, s / 2);
             (
                 xs[0].pick2(xs[1], i),
@@ -473,16 +627,17 @@ impl<V: Vector> WideLong<'_, V> {
         self.y_last.select(within, along)
     }
 
-    /// Item `i` (each lane's) of the table's third `k` (`0` the abscissas, `1` the values, `2`
-    /// the slopes), of `P > 2 V::N` numbers: looked up in its vectors ([`WideLong::look`]) up to
-    /// [`Vector::LOOK_MAX`] numbers, else gathered.
+    /// Item `i` (each lane's) of the table's part `k` (`0` the abscissas, `1` the values, `2`
+    /// the slopes, `3` the buckets' segments, `4` the next abscissas), of `P >= 2 V::N` numbers:
+    /// looked up in its vectors ([`WideLong::look`]) up to [`Vector::LOOK_MAX`] numbers, else
+    /// gathered.
     ///
     /// # Safety
-    /// The CPU must have `V`'s instructions (see [`Vector`]); `k < 3`, each index below `P`.
+    /// The CPU must have `V`'s instructions (see [`Vector`]); `k < 5`, each index below `P`.
     #[inline(always)]
     unsafe fn fetch(&self, k: usize, i: V::Index) -> V {
         let s = self.segs;
-        assert!(k < 3 && self.table.len() == 3 * s && s.is_multiple_of(2 * V::N));
+        assert!(k < 5 && self.table.len() == 5 * s && s.is_multiple_of(2 * V::N));
         // SAFETY: `P` numbers from `k P` are within the table (asserted); the caller's promise
         // for the indices.
         let t = self.table.as_ptr().add(k * s);
@@ -997,23 +1152,52 @@ mod tests {
         // (refused: a jump at the first point; a `-0.0` first value)
         let mut first_jump = jumpy.clone();
         first_jump[1].0 = first_jump[0].0;
-        curves.push((first_jump, false));
+        curves.push((first_jump.clone(), false));
         let mut minus_zero = (0..20).map(|i| wavy(20, i)).collect::<Vec<_>>();
         minus_zero[0].1 = -0.0;
         curves.push((minus_zero, false));
+        // (abscissas spread unevenly, as a sampled force law's: mildly, one to a bucket at
+        // most; and more, two in some buckets)
+        let uneven = |n: usize, bend: f64| -> Vec<(f64, f64)> {
+            (0..n)
+                .map(|i| {
+                    let u = i as f64 * 2.0 / (n - 1) as f64 - 1.0;
+                    (u * (1.0 + bend * u * u), u.sin())
+                })
+                .collect()
+        };
+        curves.push((uneven(30, 0.05), true));
+        curves.push((uneven(33, 0.3), true));
         let xs = probes(779, 500, curves.iter().map(|c| &c.0[..]));
         let mut refused_differ = 0;
         let mut widths = 0;
+        let mut guessed = 0;
         for (pts, widens) in &curves {
             let c = Curve::new(pts).unwrap();
             let long = LongCurve::new(&c);
             assert_eq!(long.widens(), *widens, "{pts:?}");
             let minus_zero = pts.iter().any(|p| p.1.to_bits() == (-0.0f64).to_bits());
             assert_eq!(long.never_minus_zero(), !minus_zero, "{pts:?}");
+            // the grid's bucket edges and their neighbours too, where it has one
+            let mut xs = xs.clone();
+            let grid =
+                (pts.len() > 1).then(|| Grid::new(&long.table[..long.segs], c.xs()[pts.len() - 1]));
+            if let Some(Some(grid)) = &grid {
+                guessed += 1;
+                assert!(long.scale.is_some());
+                for (b, &e) in grid.edges.iter().enumerate() {
+                    xs.extend([e, e.next_down(), e.next_up()]);
+                    // (each edge the least `x` of its bucket)
+                    assert!(grid.bucket(e) >= b && (b == 0 || grid.bucket(e.next_down()) < b));
+                }
+            } else {
+                assert!(long.scale.is_none());
+            }
             let want: Vec<u64> = xs.iter().map(|&x| c.eval(x).to_bits()).collect();
             let got = long_bits(&long, &xs);
+            let searched = long_bits(&long.searched(), &xs);
             widths = got.len();
-            for got in got {
+            for got in got.into_iter().chain(searched) {
                 if *widens {
                     for (i, (g, w)) in got.iter().zip(&want).enumerate() {
                         assert_eq!(g, w, "{} points at {}", pts.len(), xs[i]);
@@ -1025,8 +1209,21 @@ mod tests {
         }
         assert_eq!(
             refused_differ,
-            widths * curves.iter().filter(|c| !c.1).count()
+            2 * widths * curves.iter().filter(|c| !c.1).count()
         );
+        // the evenly spread curves of 17 to 100 points and the mildly uneven one have an exact
+        // grid; the jumps of three points (`jumpy`, `first_jump`) and the crowded abscissas
+        // do not
+        let grids = |pts: &[(f64, f64)]| LongCurve::new(&Curve::new(pts).unwrap()).scale.is_some();
+        for n in [17, 33, 64, 100] {
+            assert!(
+                grids(&(0..n).map(|i| wavy(n, i)).collect::<Vec<_>>()),
+                "{n}"
+            );
+        }
+        assert!(grids(&uneven(30, 0.05)));
+        assert!(!grids(&uneven(33, 0.3)) && !grids(&jumpy) && !grids(&first_jump));
+        assert!(guessed >= 6, "{guessed}");
         #[cfg(target_arch = "x86_64")]
         assert!(widths > 0 || !std::is_x86_feature_detected!("avx2"));
     }

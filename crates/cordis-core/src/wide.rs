@@ -52,6 +52,8 @@ pub(crate) trait Vector: Copy {
     unsafe fn div(self, b: Self) -> Self;
     /// `if self > b { self } else { b }`, lane by lane (`maxpd`: `b` for a NaN or two zeros).
     unsafe fn max(self, b: Self) -> Self;
+    /// `if self < b { self } else { b }`, lane by lane (`minpd`: `b` for a NaN or two zeros).
+    unsafe fn min(self, b: Self) -> Self;
     /// The lanes where `self <= b` (false where either is NaN).
     unsafe fn le(self, b: Self) -> Self::Mask;
     /// The lanes where `self < b` (false where either is NaN).
@@ -85,6 +87,10 @@ pub(crate) trait Vector: Copy {
     unsafe fn at_least(i: Self::Index, p: usize) -> Self::Mask;
     /// `i << bits` in every lane (`i` times `2^bits`, below `2^31`).
     unsafe fn times(i: Self::Index, bits: u32) -> Self::Index;
+    /// Each lane truncated to an index (each lane a number in `-1 < x < 2^31`).
+    unsafe fn truncated(self) -> Self::Index;
+    /// Each lane's bits as an index (each lane `f64::from_bits(i)` for an index `i < 2^31`).
+    unsafe fn index_bits(self) -> Self::Index;
     /// `*p.add(i[j])` in each lane `j` (a gather; each `p.add(i[j])` valid for reads).
     unsafe fn gather(p: *const f64, i: Self::Index) -> Self;
 }
@@ -153,6 +159,10 @@ impl Vector for V8 {
         V8(_mm512_max_pd(self.0, b.0))
     }
     #[inline(always)]
+    unsafe fn min(self, b: Self) -> Self {
+        V8(_mm512_min_pd(self.0, b.0))
+    }
+    #[inline(always)]
     unsafe fn le(self, b: Self) -> __mmask8 {
         _mm512_cmp_pd_mask::<_CMP_LE_OQ>(self.0, b.0)
     }
@@ -218,6 +228,15 @@ impl Vector for V8 {
     #[inline(always)]
     unsafe fn times(i: __m512i, bits: u32) -> __m512i {
         _mm512_sll_epi64(i, _mm_cvtsi32_si128(bits as i32))
+    }
+    /// `vcvttpd2dq` then `vpmovsxdq` (AVX-512F has no `f64` to 64-bit conversion).
+    #[inline(always)]
+    unsafe fn truncated(self) -> __m512i {
+        _mm512_cvtepi32_epi64(_mm512_cvttpd_epi32(self.0))
+    }
+    #[inline(always)]
+    unsafe fn index_bits(self) -> __m512i {
+        _mm512_castpd_si512(self.0)
     }
     /// One `vgatherqpd`.
     #[inline(always)]
@@ -290,6 +309,10 @@ impl Vector for V4 {
     #[inline(always)]
     unsafe fn max(self, b: Self) -> Self {
         V4(_mm256_max_pd(self.0, b.0))
+    }
+    #[inline(always)]
+    unsafe fn min(self, b: Self) -> Self {
+        V4(_mm256_min_pd(self.0, b.0))
     }
     #[inline(always)]
     unsafe fn le(self, b: Self) -> __m256d {
@@ -369,6 +392,15 @@ impl Vector for V4 {
     #[inline(always)]
     unsafe fn times(i: __m256i, bits: u32) -> __m256i {
         _mm256_sll_epi64(i, _mm_cvtsi32_si128(bits as i32))
+    }
+    /// `vcvttpd2dq` then `vpmovsxdq`.
+    #[inline(always)]
+    unsafe fn truncated(self) -> __m256i {
+        _mm256_cvtepi32_epi64(_mm256_cvttpd_epi32(self.0))
+    }
+    #[inline(always)]
+    unsafe fn index_bits(self) -> __m256i {
+        _mm256_castpd_si256(self.0)
     }
     /// One `vgatherqpd`.
     #[inline(always)]
@@ -456,6 +488,10 @@ mod tests {
             .map(|(&p, &q)| if p > q { p } else { q })
             .collect();
         assert_eq!(bits(&lanes(vx.max(vy))), bits(&max));
+        let min: Vec<f64> = (x.iter().zip(&y))
+            .map(|(&p, &q)| if p < q { p } else { q })
+            .collect();
+        assert_eq!(bits(&lanes(vx.min(vy))), bits(&min));
         for (m, want) in [
             (
                 vx.le(vy),
@@ -547,6 +583,35 @@ mod tests {
             assert_eq!(bits(&got), bits(&want), "{at:?}");
             for p in [1, 3, 8, 16, 40] {
                 let got = lanes(V::zero().select(V::at_least(scaled, p), V::splat(1.0)));
+                let want: Vec<f64> = at.iter().map(|&c| f64::from(u8::from(c >= p))).collect();
+                assert_eq!(got, want, "{at:?} >= {p}");
+            }
+        }
+        // indexes from numbers: truncated (zeros of both signs, just below an integer, the
+        // largest), and from an index's bits: their low bits picked, their size compared
+        let near: [f64; 8] = [
+            0.0,
+            -0.0,
+            0.999_999_999,
+            1.0,
+            6.5,
+            -0.75,
+            2_147_483_647.0,
+            31.0f64.next_down(),
+        ];
+        let back: Vec<f64> = (0..n).map(|j| f64::from_bits(j as u64 * 5 + 1)).collect();
+        let made = [
+            V::load(near.as_ptr()).truncated(),
+            V::load(back.as_ptr()).index_bits(),
+        ];
+        for (k, i) in made.into_iter().enumerate() {
+            let at: Vec<usize> = (0..n)
+                .map(|j| if k == 0 { near[j] as usize } else { j * 5 + 1 })
+                .collect();
+            let want: Vec<f64> = at.iter().map(|&c| table[c % (2 * n)]).collect();
+            assert_eq!(bits(&lanes(lo.pick2(hi, V::low(i)))), bits(&want), "{at:?}");
+            for p in [1, 6, 7, 30, 31, 1 << 30, (1 << 31) - 1] {
+                let got = lanes(V::zero().select(V::at_least(i, p), V::splat(1.0)));
                 let want: Vec<f64> = at.iter().map(|&c| f64::from(u8::from(c >= p))).collect();
                 assert_eq!(got, want, "{at:?} >= {p}");
             }
