@@ -34,6 +34,14 @@ pub(crate) struct ExactCurve<const N: usize> {
     ys: [f64; N],
     /// `slopes[i]` of segment `i` (the last entry unused)
     slopes: [f64; N],
+    /// For [`WideCurve::eval`]'s guess, where the curve has an exact [`Grid`] of `N` buckets
+    /// (only for `N` of 16, [`ExactCurve::GRIDS`]): each bucket's segment (an index's
+    /// bits as an `f64`) and the abscissa after that segment (`x[s + 1]`, NaN for `s = N - 1`),
+    /// both by bucket; `0.0` each otherwise
+    segs: [f64; N],
+    nexts: [f64; N],
+    /// The grid's buckets a unit of `x`, `0.0` for no grid
+    scale: f64,
 }
 
 impl<const N: usize> ExactCurve<N> {
@@ -63,6 +71,9 @@ impl<const N: usize> ExactCurve<N> {
             xs: [0.0; N],
             ys: [0.0; N],
             slopes: [0.0; N],
+            segs: [0.0; N],
+            nexts: [0.0; N],
+            scale: 0.0,
         };
         let points = e.xs.iter_mut().zip(&mut e.ys).zip(&mut e.slopes);
         for (i, ((x, y), slope)) in points.enumerate() {
@@ -70,8 +81,37 @@ impl<const N: usize> ExactCurve<N> {
             (*x, *y) = (xs[j], ys[j]);
             *slope = if i + 1 < n { slopes[i] } else { 0.0 };
         }
+        // (the padded abscissas, the last point repeated: the grid's `x[0..P]`, `P = N`)
+        let last = e.xs.last().copied().filter(|_| Self::GRIDS);
+        if let Some(grid) = last.and_then(|last| Grid::new(&e.xs, last)) {
+            for (b, &edge) in grid.edges.iter().enumerate() {
+                let s = grid.segment(edge);
+                e.segs[b] = f64::from_bits(s as u64);
+                e.nexts[b] = e.xs.get(s + 1).copied().unwrap_or(f64::NAN);
+            }
+            e.scale = grid.scale;
+        }
         Some(e)
     }
+
+    /// Whether the curve may have a grid ([`ExactCurve::segs`]): `N` of 16, the size that
+    /// [`WideCurve::eval`] looks up in two vectors of eight ([`WideCurve::LOOKS_UP`]). (A curve
+    /// of 8 looks up in one vector, 3 halvings; there the guess's operations are as many as the
+    /// search's, and `random_lnl_drawn` measured no faster.)
+    const GRIDS: bool = N >= 16;
+
+    /// How many numbers [`ExactCurve::write`] writes for a curve of `n` points (`N = n`): its
+    /// points and slopes, `3 n`, and for `n` of 16 its grid's `2 n + 1`.
+    pub(crate) const fn len(n: usize) -> usize {
+        if n >= 16 {
+            5 * n + 1
+        } else {
+            3 * n
+        }
+    }
+
+    /// [`ExactCurve::len`] of `N`.
+    pub(crate) const LEN: usize = Self::len(N);
 
     /// The value at `x`: [`Curve::eval`], bit for bit. With `i` the last point whose abscissa is
     /// `<= x`: no such point gives `y[0]`, the last point `y[N-1]`, and otherwise segment `i`,
@@ -102,9 +142,13 @@ impl<const N: usize> ExactCurve<N> {
 }
 
 impl<const N: usize> ExactCurve<N> {
-    /// Whether `other` has the same points, bit for bit (so the same values everywhere).
+    /// Whether `other` has the same points (and grid), bit for bit (so the same values
+    /// everywhere).
     pub(crate) fn same_bits(&self, other: &Self) -> bool {
-        let all = |c: &Self| c.xs.into_iter().chain(c.ys).chain(c.slopes);
+        let all = |c: &Self| {
+            let grid = c.segs.into_iter().chain(c.nexts).chain([c.scale]);
+            c.xs.into_iter().chain(c.ys).chain(c.slopes).chain(grid)
+        };
         all(self)
             .zip(all(other))
             .all(|(a, b)| a.to_bits() == b.to_bits())
@@ -142,23 +186,50 @@ impl<const N: usize> ExactCurve<N> {
         ExactCurve::<M>::fit(&self.xs, &self.ys, &self.slopes)
     }
 
-    /// Appends the curve's `3 N` numbers to `out`, as [`ExactCurve::read`] takes them back.
+    /// Appends the curve's [`ExactCurve::LEN`] numbers to `out`, as [`ExactCurve::read`] takes
+    /// them back.
     pub(crate) fn write(&self, out: &mut Vec<f64>) {
         out.extend(self.xs.iter().chain(&self.ys).chain(&self.slopes));
+        if Self::GRIDS {
+            out.extend(self.segs.iter().chain(&self.nexts).chain([&self.scale]));
+        }
     }
 
     /// The curve that [`ExactCurve::write`] wrote at the start of `t`.
     ///
     /// # Panics
-    /// If `t` has fewer than `3 N` numbers.
+    /// If `t` has fewer than [`ExactCurve::LEN`] numbers.
     #[inline(always)]
     pub(crate) fn read(t: &[f64]) -> Self {
-        let t = &t[..3 * N];
+        let t = &t[..Self::LEN];
         let at = |i: usize| -> [f64; N] { std::array::from_fn(|j| t[i * N + j]) };
+        let grid = |i: usize| if Self::GRIDS { at(i) } else { [0.0; N] };
         ExactCurve {
             xs: at(0),
             ys: at(1),
             slopes: at(2),
+            segs: grid(3),
+            nexts: grid(4),
+            scale: if Self::GRIDS { t[5 * N] } else { 0.0 },
+        }
+    }
+
+    /// Whether the curve has a grid, so that [`WideCurve::eval`] guesses its segments with
+    /// AVX-512 (for the tests).
+    #[cfg(test)]
+    pub(crate) fn guesses(&self) -> bool {
+        self.scale > 0.0
+    }
+
+    /// The curve without its grid: [`WideCurve::eval`] searches whatever the curve (for the
+    /// tests, which check both).
+    #[cfg(test)]
+    fn searched(&self) -> Self {
+        ExactCurve {
+            segs: [0.0; N],
+            nexts: [0.0; N],
+            scale: 0.0,
+            ..*self
         }
     }
 
@@ -172,11 +243,16 @@ impl<const N: usize> ExactCurve<N> {
         // (loops, not `map` and closures: a closure is compiled without the caller's target
         // features, and `map` of 16 was not inlined, so that each broadcast was a call; 4 % of
         // the time of a string of 13-point curves, which builds its curves for each piece)
+        let guess = WideCurve::<V, N>::LOOKS_UP && self.scale > 0.0;
         let mut w = WideCurve {
             xs: [V::zero(); N],
             ys: [V::zero(); N],
             slopes: [V::zero(); N],
             table: [[V::zero(); 2]; 3],
+            grid: [[V::zero(); 2]; 2],
+            guess,
+            scale: V::splat(self.scale),
+            top: V::splat(N.saturating_sub(1) as f64),
         };
         for j in 0..N {
             w.xs[j] = V::splat(self.xs[j]);
@@ -184,7 +260,9 @@ impl<const N: usize> ExactCurve<N> {
             w.slopes[j] = V::splat(self.slopes[j]);
         }
         // (the first `2 V::N` of each, two vectors, for `WideCurve::eval`'s look-up)
-        for (t, a) in w.table.iter_mut().zip([&self.xs, &self.ys, &self.slopes]) {
+        let tables = [&self.xs, &self.ys, &self.slopes, &self.segs, &self.nexts];
+        let parts = w.table.iter_mut().chain(&mut w.grid);
+        for (t, a) in parts.zip(tables).take(if guess { 5 } else { 3 }) {
             let (lo, hi) = a.split_at(N.min(V::N));
             *t = [V::load_part(lo), V::load_part(&hi[..hi.len().min(V::N)])];
         }
@@ -203,6 +281,15 @@ pub(crate) struct WideCurve<V: Vector, const N: usize> {
     slopes: [V; N],
     /// The first `2 V::N` abscissas, values and slopes, two vectors each (`0.0` past `N`)
     table: [[V; 2]; 3],
+    /// Where the curve [`WideCurve::guess`]es: the buckets' segments and next abscissas
+    /// ([`ExactCurve::segs`]), two vectors each
+    grid: [[V; 2]; 2],
+    /// Whether [`WideCurve::eval`] guesses each lane's segment: the curve has a grid and is
+    /// looked up ([`WideCurve::LOOKS_UP`])
+    guess: bool,
+    /// The grid's buckets a unit and `N - 1`, in every lane
+    scale: V,
+    top: V,
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -254,6 +341,13 @@ impl<V: Vector, const N: usize> WideCurve<V, N> {
     /// `within` is false and both give `y[N-1]`. [`Vector::pick`] (or [`Vector::pick2`]) reads
     /// the `x[s]`, `y[s]` and slope from the table, the numbers the selects would.
     ///
+    /// Where the curve has an exact grid ([`WideCurve::guess`]), `s` is guessed instead, as
+    /// [`WideLong::eval`] does ([`Grid`]: the segment of the lane's bucket, plus one where the
+    /// abscissa after it is `<= x`; both looked up by bucket): the search's `s` wherever `x <
+    /// x[N-1]`, and an index below `N` elsewhere, where the value is `y[N-1]` whatever `s`. The
+    /// bucket is `min((x - x[0]) scale, N - 1)` truncated, `Grid::bucket`'s operations, from the
+    /// raised `x` (never NaN; `+inf` gives `N - 1`): an index below `N`.
+    ///
     /// # Safety
     /// The CPU must have `V`'s instructions (see [`Vector`]).
     #[inline(always)]
@@ -262,7 +356,14 @@ impl<V: Vector, const N: usize> WideCurve<V, N> {
             return V::zero(); // (`N` is 0: `ExactCurve::new` refuses 1)
         }
         let x = x.max(self.xs[0]);
-        let (x0, y, slope) = if Self::LOOKS_UP {
+        let (x0, y, slope) = if Self::LOOKS_UP && self.guess {
+            let pick = Self::pick;
+            let b = x.sub(self.xs[0]).mul(self.scale).min(self.top).truncated();
+            let s = pick(self.grid[0], b).index_bits();
+            let i = V::moved(s, pick(self.grid[1], b).le(x), V::plus(s, 1));
+            let [xs, ys, slopes] = self.table;
+            (pick(xs, i), pick(ys, i), pick(slopes, i))
+        } else if Self::LOOKS_UP {
             let pick = Self::pick;
             // (the first halving: `i + h` is `h` in every lane, `x[h]` broadcast)
             let mut h = N / 2;
@@ -442,13 +543,13 @@ impl LongCurve {
     }
 }
 
-/// The uniform grid from which [`WideLong::eval`] guesses a lane's segment: `P` buckets over
-/// `[x[0], x[n-1]]`, `scale = P / (x[n-1] - x[0])` buckets a unit, the bucket of `x >= x[0]`
-/// being `b(x) = min((x - x[0]) scale, P - 1)` truncated (each operation rounded, as the vector
-/// code does them), and each bucket's *edge*, its least `x`. The bucket never decreases as `x`
-/// grows (a subtraction, a product by a positive number, a `min` and a truncation each keep
-/// the order), so the edge is found by bisection over the doubles in order, and every `x` of
-/// bucket `b` lies in `edge[b] <= x < edge[b + 1]`.
+/// The uniform grid from which [`WideLong::eval`] (and [`WideCurve::eval`], `P = N`) guesses a
+/// lane's segment: `P` buckets over `[x[0], x[n-1]]`, `scale = P / (x[n-1] - x[0])` buckets a
+/// unit, the bucket of `x >= x[0]` being `b(x) = min((x - x[0]) scale, P - 1)` truncated (each
+/// operation rounded, as the vector code does them), and each bucket's *edge*, its least `x`.
+/// The bucket never decreases as `x` grows (a subtraction, a product by a positive number, a
+/// `min` and a truncation each keep the order), so the edge is found by bisection over the
+/// doubles in order, and every `x` of bucket `b` lies in `edge[b] <= x < edge[b + 1]`.
 ///
 /// The guess takes the segment of the bucket's edge, `s = seg(edge[b])` (`seg(x)`: the last of
 /// `0..P` whose abscissa is `<= x`), then `s + 1` where `x[s + 1] <= x`. The grid is *exact*
@@ -1006,15 +1107,29 @@ mod tests {
     /// `WideCurve::eval` gives `Curve::eval`'s bits in every lane for the curves that widen,
     /// at the points, next to them, at zeros, infinities and NaNs of both signs; the curves that
     /// do not widen (a `-0.0` first value, a jump at the first point, an infinite first slope)
-    /// are refused because it would not.
+    /// are refused because it would not. Curves of 9 to 16 points whose grid is exact are
+    /// evaluated both ways, their segments guessed and searched (also at the grid's bucket
+    /// edges and next to them).
     #[test]
     fn wide_curves_evaluate_to_the_same_bits() {
         let curves = curves_to_widen();
-        let xs = probes(777, 500, curves.iter().map(|c| &c.0[..]));
-        let mut refused_differ = 0;
-        let mut widths = 0;
+        let probed = probes(777, 500, curves.iter().map(|c| &c.0[..]));
+        let (mut refused_differ, mut refused_runs) = (0, 0);
+        // (the runs of each curve: one a width, and with AVX-512 one more where it has a grid)
+        let mut widths = usize::MAX;
+        let mut gridded = 0;
         for (pts, widens) in &curves {
             let c = Curve::new(pts).unwrap();
+            let mut xs = probed.clone();
+            let n = pts.len();
+            if (9..=16).contains(&n) {
+                // (the abscissas as `ExactCurve::fitted` pads them, to 16)
+                let padded: Vec<f64> = (0..16).map(|i| c.xs()[i.min(n - 1)]).collect();
+                if let Some(grid) = Grid::new(&padded, padded[15]) {
+                    probe_edges(&mut xs, &grid);
+                    gridded += 1;
+                }
+            }
             // (each curve as the `ExactCurve` of its size, evaluated wide and one at a time)
             let (got, want): (Vec<Vec<u64>>, Vec<u64>) = match pts.len() {
                 0 => wide_bits(&ExactCurve::<0>::new(&c).unwrap(), &xs, *widens),
@@ -1026,24 +1141,59 @@ mod tests {
             };
             let scalar: Vec<u64> = xs.iter().map(|&x| c.eval(x).to_bits()).collect();
             assert_eq!(want, scalar, "{pts:?}: ExactCurve::eval");
-            widths = got.len();
+            widths = widths.min(got.len());
             for got in got {
                 if *widens {
                     for (i, (g, w)) in got.iter().zip(&want).enumerate() {
                         assert_eq!(g, w, "{pts:?} at {}", xs[i]);
                     }
-                } else if got != want {
-                    refused_differ += 1;
+                } else {
+                    refused_runs += 1;
+                    refused_differ += usize::from(got != want);
                 }
             }
         }
-        // (each refused curve would give other bits somewhere, in every width: `+0.0` for a
-        // `-0.0` first value, the value after a jump at the first point, `0 * inf`, a NaN, before
-        // an infinite slope)
-        assert_eq!(
-            refused_differ,
-            widths * curves.iter().filter(|c| !c.1).count()
-        );
+        // (each refused curve would give other bits somewhere, in every width and both ways:
+        // `+0.0` for a `-0.0` first value, the value after a jump at the first point, `0 *
+        // inf`, a NaN, before an infinite slope)
+        assert_eq!(refused_differ, refused_runs);
+        assert!(refused_runs >= widths * curves.iter().filter(|c| !c.1).count());
+        // the evenly spread curves of 9 to 16 points and the mildly uneven one have an exact
+        // grid; jumps inside, and abscissas that crowd toward one end, do not
+        let grids = |pts: &[(f64, f64)]| {
+            let c = Curve::new(pts).unwrap();
+            ExactCurve::<16>::fitted(&c).unwrap().scale > 0.0
+        };
+        let even = |n: usize| -> Vec<(f64, f64)> {
+            (0..n)
+                .map(|i| (i as f64 * 0.5 - 1.0, (i as f64).cos()))
+                .collect()
+        };
+        for n in [9, 13, 16] {
+            assert!(grids(&even(n)), "{n}");
+        }
+        // (the engine bench's `fine` spring of 13 points, at 0, ±1/4, ±1/2, ±3/4, ±1, ±3/2 and
+        // ±2 times 1000: its points fall on the edges of buckets a quarter wide)
+        let ts = [
+            -2.0, -1.5, -1.0, -0.75, -0.5, -0.25, 0.0, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0,
+        ];
+        let fine: Vec<(f64, f64)> = (ts.iter())
+            .map(|&t: &f64| {
+                let y = if t.abs() <= 1.0 {
+                    t
+                } else {
+                    t.signum() * (2.0 * t.abs() - 1.0)
+                };
+                (t * 1e3, 0.1 * y * 1e3)
+            })
+            .collect();
+        assert!(grids(&fine));
+        // (the 12 points with jumps inside, the 16 at square roots, the 16 in jumps of two)
+        let crowded: Vec<_> = (curves.iter().map(|c| &c.0))
+            .filter(|p| p.len() == 12 || (p.len() == 16 && p[1].0 - p[0].0 == 1.0))
+            .collect();
+        assert!(crowded.len() == 3 && crowded.iter().all(|p| !grids(p)));
+        assert!(gridded >= 4, "{gridded}");
     }
 
     /// Curves of 0 to 16 points, and whether they widen ([`ExactCurve::widens`]).
@@ -1090,7 +1240,8 @@ mod tests {
                 vec![(-1.0, 1.0), (-1.0, 2.0), (0.0, 0.0), (1.0, 1.0), (2.0, 0.0)],
                 false,
             ),
-            // (9 to 16 points, padded to 16: jumps inside and at the end, a -0.0 value)
+            // (9 to 16 points, padded to 16: jumps inside and at the end, a -0.0 value; then
+            // evenly spread and mildly uneven, with a grid)
             (
                 (0..9)
                     .map(|i| (i as f64 * 0.75 - 3.0, (i as f64 * 0.9).sin()))
@@ -1117,6 +1268,39 @@ mod tests {
             (
                 (0..16)
                     .map(|i| (((i + 1) / 2) as f64 - 4.0, if i == 0 { -0.0 } else { 1.0 }))
+                    .collect(),
+                false,
+            ),
+            (
+                (0..13)
+                    .map(|i| (i as f64 / 6.0 - 1.0, (i as f64 * 0.8).sin() - 0.25))
+                    .collect(),
+                true,
+            ),
+            (
+                (0..16)
+                    .map(|i| (i as f64 * 0.125 - 0.9375, ((i * i) % 7) as f64))
+                    .collect(),
+                true,
+            ),
+            (
+                (0..13)
+                    .map(|i| {
+                        let u = i as f64 / 6.0 - 1.0;
+                        (u * (1.0 + 0.1 * u * u), u * u * u)
+                    })
+                    .collect(),
+                true,
+            ),
+            (
+                (0..7)
+                    .map(|i| (i as f64 * 0.3 - 0.9, (i as f64 * 0.9).cos()))
+                    .collect(),
+                true,
+            ),
+            (
+                (0..13)
+                    .map(|i| (i as f64 / 6.0 - 1.0, if i == 0 { -0.0 } else { 0.5 }))
                     .collect(),
                 false,
             ),
@@ -1185,11 +1369,7 @@ mod tests {
             if let Some(Some(grid)) = &grid {
                 guessed += 1;
                 assert!(long.scale.is_some());
-                for (b, &e) in grid.edges.iter().enumerate() {
-                    xs.extend([e, e.next_down(), e.next_up()]);
-                    // (each edge the least `x` of its bucket)
-                    assert!(grid.bucket(e) >= b && (b == 0 || grid.bucket(e.next_down()) < b));
-                }
+                probe_edges(&mut xs, grid);
             } else {
                 assert!(long.scale.is_none());
             }
@@ -1333,8 +1513,18 @@ mod tests {
         xs
     }
 
+    /// Adds to `xs` the grid's bucket edges and the doubles either side of each, checking that
+    /// each edge is the least `x` of its bucket.
+    fn probe_edges(xs: &mut Vec<f64>, grid: &Grid) {
+        for (b, &e) in grid.edges.iter().enumerate() {
+            xs.extend([e, e.next_down(), e.next_up()]);
+            assert!(grid.bucket(e) >= b && (b == 0 || grid.bucket(e.next_down()) < b));
+        }
+    }
+
     /// The bits of `e` at `xs`: `WideCurve::eval`'s in each width the CPU has (AVX-512, AVX2;
-    /// none elsewhere) and `eval`'s; checks that `e.widens()` is `widens`.
+    /// none elsewhere; with AVX-512, of `e` searched too where it has a grid) and `eval`'s;
+    /// checks that `e.widens()` is `widens`.
     fn wide_bits<const N: usize>(
         e: &ExactCurve<N>,
         xs: &[f64],
@@ -1373,6 +1563,10 @@ mod tests {
             if std::is_x86_feature_detected!("avx512f") {
                 // SAFETY: the CPU has AVX-512F.
                 got.push(unsafe { eval8(e, xs) });
+                if e.scale > 0.0 {
+                    // SAFETY: as above.
+                    got.push(unsafe { eval8(&e.searched(), xs) });
+                }
             }
             if std::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU has AVX2.

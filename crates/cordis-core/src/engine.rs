@@ -5375,6 +5375,11 @@ mod tests {
         let mut net = springs(seed, n, None);
         let [mut lnl, mut others @ ..] = lnl_pairs();
         let [first, second, fine] = drawn_pairs();
+        // (the finely drawn stiffness curve has an exact grid: its segment is guessed with
+        // AVX-512, `WideCurve::eval`)
+        if let Interaction::Lnl { lk, .. } = &fine {
+            assert!(ExactCurve::<16>::fitted(lk).unwrap().guesses());
+        }
         match mix {
             4 | 5 => [lnl, others[0]] = [first, second],
             6 | 7 => [lnl, others[0]] = [fine, second],
@@ -6665,6 +6670,26 @@ mod tests {
             (0.009, 1.5e-3),
         ];
         nets.push(("800 LNL 13 2".into(), bank(1, 800, lnl(fine, linear))));
+        // (evenly spread, 13 points: an exact grid, the segment guessed with AVX-512; `fine`
+        // has a jump inside a bucket and is searched)
+        let even: &'static [(f64, f64)] = Vec::leak(
+            (0..13)
+                .map(|i| {
+                    let x = (i as f64 - 6.0) * 1.5e-3;
+                    (x, 0.1 * x + 1e3 * x * x * x)
+                })
+                .collect(),
+        );
+        let grids = |c: &[(f64, f64)]| {
+            ExactCurve::<16>::fitted(&Curve::new(c).unwrap())
+                .unwrap()
+                .guesses()
+        };
+        assert!(grids(even) && !grids(fine));
+        nets.push((
+            "800 LNL 13 2, evenly".into(),
+            bank(1, 800, lnl(even, linear)),
+        ));
         nets.push(("300 LNL 9 0".into(), bank(1, 300, lnl(&fine[2..11], &[]))));
         let mut free = bank(1, 900, lnl(drawn, fine));
         free_both(&mut free);

@@ -421,7 +421,7 @@ impl Pull {
                     evaluations[1] += usize::from(!parts.is_empty());
                     let at = |pair: u32| match pair {
                         LONGS.. => pair,
-                        _ => pair * 3 * (a + b) as u32,
+                        _ => pair * (ExactCurve::<0>::len(a) + ExactCurve::<0>::len(b)) as u32,
                     };
                     p.row_curves.push(match parts[..] {
                         [] => NO_LNL,
@@ -572,10 +572,11 @@ impl Pull {
                 part.expect("an LNL lane is in a part of its row").0
             }
         };
-        // (a table position: pair `j` is at `3 (a + b) j`, `a` and `b` the table's point counts)
+        // (a table position: pair `j` is at `j` times the numbers of a pair, `ExactCurve::len` of
+        // `a` and of `b`, the table's point counts)
         match (at, self.curves.map(|c| c.counts())) {
             (LONGS.., _) => at,
-            (_, Some((a, b))) => at / (3 * (a + b)) as u32,
+            (_, Some((a, b))) => at / (ExactCurve::<0>::len(a) + ExactCurve::<0>::len(b)) as u32,
             (_, None) => unreachable!("a network of several pairs has the table's shape"),
         }
     }
@@ -1408,8 +1409,8 @@ fn read_pair<const A: usize, const B: usize>(
     table: &[f64],
     at: u32,
 ) -> (ExactCurve<A>, ExactCurve<B>) {
-    let t = &table[at as usize..at as usize + 3 * (A + B)];
-    let (k, z) = t.split_at(3 * A);
+    let t = &table[at as usize..at as usize + ExactCurve::<A>::LEN + ExactCurve::<B>::LEN];
+    let (k, z) = t.split_at(ExactCurve::<A>::LEN);
     (ExactCurve::<A>::read(k), ExactCurve::<B>::read(z))
 }
 
