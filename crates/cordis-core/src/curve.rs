@@ -44,6 +44,17 @@ pub(crate) struct ExactCurve<const N: usize> {
     scale: f64,
 }
 
+/// How many numbers [`ExactCurve::write`] writes for a curve of `n` points (`N = n`): its points
+/// and slopes, `3 n`, and for `n` of 16 its grid's `2 n + 1` ([`ExactCurve::LEN`]; the pull step
+/// lays out its tables of several pairs by it, where `n` is known only at run time).
+pub(crate) const fn exact_len(n: usize) -> usize {
+    if n >= 16 {
+        5 * n + 1
+    } else {
+        3 * n
+    }
+}
+
 impl<const N: usize> ExactCurve<N> {
     /// `None` unless the curve has exactly `N` points, `N` being 0 or at least 2.
     #[cfg(test)]
@@ -100,18 +111,8 @@ impl<const N: usize> ExactCurve<N> {
     /// search's, and `random_lnl_drawn` measured no faster.)
     const GRIDS: bool = N >= 16;
 
-    /// How many numbers [`ExactCurve::write`] writes for a curve of `n` points (`N = n`): its
-    /// points and slopes, `3 n`, and for `n` of 16 its grid's `2 n + 1`.
-    pub(crate) const fn len(n: usize) -> usize {
-        if n >= 16 {
-            5 * n + 1
-        } else {
-            3 * n
-        }
-    }
-
-    /// [`ExactCurve::len`] of `N`.
-    pub(crate) const LEN: usize = Self::len(N);
+    /// How many numbers [`ExactCurve::write`] writes: [`exact_len`] of `N`.
+    pub(crate) const LEN: usize = exact_len(N);
 
     /// The value at `x`: [`Curve::eval`], bit for bit. With `i` the last point whose abscissa is
     /// `<= x`: no such point gives `y[0]`, the last point `y[N-1]`, and otherwise segment `i`,

@@ -71,7 +71,7 @@ use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
 use super::{AnyPair, Claim, ExactPair, Kernel, Law, Lnl, MasLaw, PairFn, Roles, Run, Simd};
 use super::{State, NEG};
 #[cfg(target_arch = "x86_64")]
-use crate::curve::{ExactCurve, WideCurve, WideLong};
+use crate::curve::{exact_len, ExactCurve, WideCurve, WideLong};
 use crate::lanes::Avx512;
 #[cfg(target_arch = "x86_64")]
 use crate::wide::V8;
@@ -421,7 +421,7 @@ impl Pull {
                     evaluations[1] += usize::from(!parts.is_empty());
                     let at = |pair: u32| match pair {
                         LONGS.. => pair,
-                        _ => pair * (ExactCurve::<0>::len(a) + ExactCurve::<0>::len(b)) as u32,
+                        _ => pair * (exact_len(a) + exact_len(b)) as u32,
                     };
                     p.row_curves.push(match parts[..] {
                         [] => NO_LNL,
@@ -572,11 +572,11 @@ impl Pull {
                 part.expect("an LNL lane is in a part of its row").0
             }
         };
-        // (a table position: pair `j` is at `j` times the numbers of a pair, `ExactCurve::len` of
+        // (a table position: pair `j` is at `j` times the numbers of a pair, `exact_len` of
         // `a` and of `b`, the table's point counts)
         match (at, self.curves.map(|c| c.counts())) {
             (LONGS.., _) => at,
-            (_, Some((a, b))) => at / (ExactCurve::<0>::len(a) + ExactCurve::<0>::len(b)) as u32,
+            (_, Some((a, b))) => at / (exact_len(a) + exact_len(b)) as u32,
             (_, None) => unreachable!("a network of several pairs has the table's shape"),
         }
     }
