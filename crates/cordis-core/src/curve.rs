@@ -44,11 +44,14 @@ pub(crate) struct ExactCurve<const N: usize> {
     scale: f64,
 }
 
+/// The point count of the curves that may have a grid ([`ExactCurve::GRIDS`]).
+const GRID_POINTS: usize = 16;
+
 /// How many numbers [`ExactCurve::write`] writes for a curve of `n` points (`N = n`): its points
-/// and slopes, `3 n`, and for `n` of 16 its grid's `2 n + 1` ([`ExactCurve::LEN`]; the pull step
-/// lays out its tables of several pairs by it, where `n` is known only at run time).
+/// and slopes, `3 n`, and for `n` of [`GRID_POINTS`] its grid's `2 n + 1` ([`ExactCurve::LEN`];
+/// the pull step lays out its tables of several pairs by it, where `n` is known only at run time).
 pub(crate) const fn exact_len(n: usize) -> usize {
-    if n >= 16 {
+    if n >= GRID_POINTS {
         5 * n + 1
     } else {
         3 * n
@@ -109,7 +112,7 @@ impl<const N: usize> ExactCurve<N> {
     /// [`WideCurve::eval`] looks up in two vectors of eight ([`WideCurve::LOOKS_UP`]). (A curve
     /// of 8 looks up in one vector, 3 halvings; there the guess's operations are as many as the
     /// search's, and `random_lnl_drawn` measured no faster.)
-    const GRIDS: bool = N >= 16;
+    const GRIDS: bool = N >= GRID_POINTS;
 
     /// How many numbers [`ExactCurve::write`] writes: [`exact_len`] of `N`.
     pub(crate) const LEN: usize = exact_len(N);
