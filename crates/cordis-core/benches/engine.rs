@@ -44,6 +44,9 @@
 //!   a stiffness curve of 7, 13 or 33 points (a hardening spring drawn point by point, drawn
 //!   finely, sampled from its formula); `random-lnl-long-halves N`: `random-lnl-halves` with the
 //!   first half's pair `random-lnl-long`'s (a pair of 33 points and one of 3, by region).
+//! - `lnl-stick N` (default 1000), `random-lnl-stick N`: the `lnl` string and the `random-lnl`
+//!   network with the papers' sticking spring as the stiffness curve (4 points, two of them
+//!   jumps: a spring of slope K that exists only while the elongation is within ±L).
 //! - `random-damped N`: the `random` network with each mass tied to the ground by a FRO of
 //!   viscosity 1e-5 (air damping): rows of REF and FRO terms.
 //!
@@ -104,6 +107,8 @@ enum Law {
     LnlFine,
     /// LNL links of curves sampled ([`sampled`]): 33 points, and `Lnl`'s viscous curve
     LnlLong,
+    /// LNL links of the sticking spring ([`sticking`]): 4 points, and `Lnl`'s viscous curve
+    LnlStick,
     /// `LnlHalves` with the first half's pair `LnlLong`'s (the random network only): a pair of
     /// 33 points and one of 3, by region
     LnlLongHalves,
@@ -125,6 +130,7 @@ impl Law {
             Law::LnlDrawn => drawn(K),
             Law::LnlFine => fine(K),
             Law::LnlLong | Law::LnlLongHalves => sampled(K),
+            Law::LnlStick => sticking(K),
         }
     }
 }
@@ -169,6 +175,22 @@ fn fine(k: f64) -> Interaction {
 fn sampled(k: f64) -> Interaction {
     let ts: Vec<f64> = (-16..=16).map(|i| f64::from(i) / 8.0).collect();
     hardening(k, &ts)
+}
+
+/// An LNL link of the simple sticking device's spring (FORMALISM.md, "Devices from the papers"):
+/// the 4-point curve `(-S, 0) (-S, -k S) (S, k S) (S, 0)` of `S = L`, a spring of slope `k` that
+/// exists only while the elongation is within ±L; and `lnl(k)`'s viscous curve (the device
+/// damps through two BUTs instead; here the viscous curve keeps the link `lnl(k)`'s within ±L, so
+/// the Rust generic's linear kernel checks it).
+fn sticking(k: f64) -> Interaction {
+    let s = LNL_L;
+    let Interaction::Lnl { lz, .. } = lnl(k) else {
+        unreachable!("an LNL link")
+    };
+    Interaction::Lnl {
+        lk: Curve::new(&[(-s, 0.0), (-s, -k * s), (s, k * s), (s, 0.0)]).expect("a valid curve"),
+        lz,
+    }
 }
 
 /// [`drawn`]'s spring through the points of abscissas `ts` times `L`, and `lnl(k)`'s viscous
@@ -271,6 +293,7 @@ fn string(n: usize, law: Law) -> Model {
         Law::LnlDrawn => format!("string_lnl_drawn_N{n}"),
         Law::LnlFine => format!("string_lnl_fine_N{n}"),
         Law::LnlLong => format!("string_lnl_long_N{n}"),
+        Law::LnlStick => format!("string_lnl_stick_N{n}"),
         _ => unreachable!("a string's links are of one law"),
     };
     Model {
@@ -548,6 +571,7 @@ fn random(n: usize, law: Law) -> Model {
             Law::LnlDrawn => format!("random_lnl_drawn_N{n}"),
             Law::LnlFine => format!("random_lnl_fine_N{n}"),
             Law::LnlLong => format!("random_lnl_long_N{n}"),
+            Law::LnlStick => format!("random_lnl_stick_N{n}"),
             Law::LnlLongHalves => format!("random_lnl_long_halves_N{n}"),
             Law::Damped => format!("random_damped_N{n}"),
         },
@@ -2133,7 +2157,7 @@ fn usage() -> ! {
          [random-lnl-mixed [N]] [random-lnl-halves [N]] [random-lnl-struck [N]] \
          [random-but-lnl [N]] [lnl-drawn [N]] [random-lnl-drawn [N]] [lnl-fine [N]] \
          [random-lnl-fine [N]] [lnl-long [N]] [random-lnl-long [N]] \
-         [random-lnl-long-halves [N]]...\n(no model: every \
+         [random-lnl-long-halves [N]] [lnl-stick [N]] [random-lnl-stick [N]]...\n(no model: every \
          default model)\n   \
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
          threads, default N = 100000 masses, T = 2)\n   \
@@ -2162,6 +2186,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "lnl-drawn" => Some(Law::LnlDrawn),
             "lnl-fine" => Some(Law::LnlFine),
             "lnl-long" => Some(Law::LnlLong),
+            "lnl-stick" => Some(Law::LnlStick),
             "membrane"
             | "rimmed"
             | "free"
@@ -2180,6 +2205,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             | "random-lnl-fine"
             | "random-lnl-long"
             | "random-lnl-long-halves"
+            | "random-lnl-stick"
             | "random-damped"
             | "strings" => None,
             _ => usage(),
@@ -2196,6 +2222,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "random-lnl-fine" => Law::LnlFine,
             "random-lnl-long" => Law::LnlLong,
             "random-lnl-long-halves" => Law::LnlLongHalves,
+            "random-lnl-stick" => Law::LnlStick,
             "random-damped" => Law::Damped,
             _ => Law::Ref,
         };
@@ -2242,7 +2269,11 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             Some(Spec::Strings(_, n)) if n < 2 => usage(),
             Some(spec) => specs.push(spec),
             None if random_law != Law::Ref => specs.push(Spec::Random(10000, random_law)),
-            None if matches!(law, Some(Law::LnlDrawn | Law::LnlFine | Law::LnlLong)) => {
+            None if matches!(
+                law,
+                Some(Law::LnlDrawn | Law::LnlFine | Law::LnlLong | Law::LnlStick)
+            ) =>
+            {
                 specs.push(Spec::String(1000, law.expect("a law")))
             }
             None => specs.extend(
