@@ -184,11 +184,16 @@ fn sampled(k: f64) -> Interaction {
 /// the Rust generic's linear kernel checks it).
 fn sticking(k: f64) -> Interaction {
     let s = LNL_L;
-    let Interaction::Lnl { lz, .. } = lnl(k) else {
+    with_lnl_damper(&[(-s, 0.0), (-s, -k * s), (s, k * s), (s, 0.0)])
+}
+
+/// An LNL link of the stiffness curve through `points` and `lnl`'s viscous curve (slope Z).
+fn with_lnl_damper(points: &[(f64, f64)]) -> Interaction {
+    let Interaction::Lnl { lz, .. } = lnl(K) else {
         unreachable!("an LNL link")
     };
     Interaction::Lnl {
-        lk: Curve::new(&[(-s, 0.0), (-s, -k * s), (s, k * s), (s, 0.0)]).expect("a valid curve"),
+        lk: Curve::new(points).expect("a valid curve"),
         lz,
     }
 }
@@ -207,13 +212,7 @@ fn hardening(k: f64, ts: &[f64]) -> Interaction {
             (t * l, k * y * l)
         })
         .collect();
-    let Interaction::Lnl { lz, .. } = lnl(k) else {
-        unreachable!("an LNL link")
-    };
-    Interaction::Lnl {
-        lk: Curve::new(&points).expect("a valid curve"),
-        lz,
-    }
+    with_lnl_damper(&points)
 }
 
 #[derive(Clone, Debug, PartialEq, Eq)]
