@@ -44,6 +44,25 @@ pub(crate) struct ExactCurve<const N: usize> {
     scale: f64,
 }
 
+/// The first abscissa and the first slope of the engine's prepared curves ([`ExactCurve`],
+/// [`LongCurve`]) of the points `xs`, `ys` (2 or more) and `slopes`: the curve's own, but for a
+/// jump at the first point (`x[0] = x[1]`, as the sticking spring of FORMALISM.md has), which
+/// would not widen as it is ([`WideCurve::eval`] raises an abscissa below `x[0]` to `x[0]`, where
+/// the value after the jump holds): there the double just below `x[0]`, and a slope of `0.0`.
+/// The segment they make holds no abscissa but that double, where it gives `y[0] + 0 * 0.0`,
+/// which is `y[0]` unless `y[0]` is `-0.0`, as [`Curve::eval`] gives below `x[0]`; the points
+/// after it are the curve's own. So the same bits everywhere, and a first segment of a width: the
+/// curve widens ([`ExactCurve::widens`]). A `-0.0` first value, or `x[0]` the least `f64`, keep
+/// the curve's own (and do not widen).
+fn first_segment(xs: &[f64], ys: &[f64], slopes: &[f64]) -> (f64, f64) {
+    let below = xs[0].next_down();
+    if xs[0] == xs[1] && below.is_finite() && ys[0].to_bits() != (-0.0f64).to_bits() {
+        (below, 0.0)
+    } else {
+        (xs[0], slopes[0])
+    }
+}
+
 /// The point count of the curves that may have a grid ([`ExactCurve::GRIDS`]).
 const GRID_POINTS: usize = 16;
 
@@ -94,6 +113,9 @@ impl<const N: usize> ExactCurve<N> {
             let j = i.min(n.saturating_sub(1));
             (*x, *y) = (xs[j], ys[j]);
             *slope = if i + 1 < n { slopes[i] } else { 0.0 };
+        }
+        if n >= 2 {
+            (e.xs[0], e.slopes[0]) = first_segment(xs, ys, slopes);
         }
         // (the padded abscissas, the last point repeated: the grid's `x[0..P]`, `P = N`)
         let last = e.xs.last().copied().filter(|_| Self::GRIDS);
@@ -441,6 +463,9 @@ impl LongCurve {
                     f64::NAN
                 };
             }
+            if n >= 2 {
+                (table[0], table[2 * segs]) = first_segment(xs, ys, slopes);
+            }
             if let Some(grid) = Grid::new(&table[..segs], xs[n - 1]) {
                 for (b, &edge) in grid.edges.iter().enumerate() {
                     table[3 * segs + b] = f64::from_bits(grid.segment(edge) as u64);
@@ -449,7 +474,9 @@ impl LongCurve {
             }
         }
         let widens = n < 2
-            || (xs[0] < xs[1] && slopes[0].is_finite() && ys[0].to_bits() != (-0.0f64).to_bits());
+            || (table[0] < xs[1]
+                && table[2 * segs].is_finite()
+                && ys[0].to_bits() != (-0.0f64).to_bits());
         LongCurve {
             n,
             segs,
@@ -1110,10 +1137,10 @@ mod tests {
 
     /// `WideCurve::eval` gives `Curve::eval`'s bits in every lane for the curves that widen,
     /// at the points, next to them, at zeros, infinities and NaNs of both signs; the curves that
-    /// do not widen (a `-0.0` first value, a jump at the first point, an infinite first slope)
-    /// are refused because it would not. Curves of 9 to 16 points whose grid is exact are
-    /// evaluated both ways, their segments guessed and searched (also at the grid's bucket
-    /// edges and next to them).
+    /// do not widen (a `-0.0` first value, an infinite first slope) are refused because it would
+    /// not; a jump at the first point widens ([`first_segment`]). Curves of 9 to 16 points whose
+    /// grid is exact are evaluated both ways, their segments guessed and searched (also at the
+    /// grid's bucket edges and next to them).
     #[test]
     fn wide_curves_evaluate_to_the_same_bits() {
         let curves = curves_to_widen();
@@ -1158,8 +1185,7 @@ mod tests {
             }
         }
         // (each refused curve would give other bits somewhere, in every width and both ways:
-        // `+0.0` for a `-0.0` first value, the value after a jump at the first point, `0 *
-        // inf`, a NaN, before an infinite slope)
+        // `+0.0` for a `-0.0` first value, `0 * inf`, a NaN, before an infinite slope)
         assert_eq!(refused_differ, refused_runs);
         assert!(refused_runs >= widths * curves.iter().filter(|c| !c.1).count());
         // the evenly spread curves of 9 to 16 points and the mildly uneven one have an exact
@@ -1219,8 +1245,16 @@ mod tests {
                 true,
             ),
             (vec![(-1.0, -0.0), (1.0, 1.0)], false),
-            (vec![(0.0, -1.0), (0.0, 1.0)], false),
-            (vec![(0.0, 1.0), (0.0, 2.0)], false),
+            // (a jump at the first point, as `first_segment` prepares it: at 0, of either
+            // sign, the first value a zero or not, points stacked; the sticking spring)
+            (vec![(0.0, -1.0), (0.0, 1.0)], true),
+            (vec![(0.0, 1.0), (0.0, 2.0)], true),
+            (vec![(0.0, 0.0), (0.0, 1.0), (1.0, 2.0)], true),
+            (vec![(-0.0, 1.0), (0.0, 2.0), (0.0, -1.0), (1.0, 0.0)], true),
+            (
+                vec![(-0.5, 0.0), (-0.5, -0.05), (0.5, 0.05), (0.5, 0.0)],
+                true,
+            ),
             (vec![(-2.0, -0.0), (-2.0, 3.0), (5.0, -1.0)], false),
             (vec![(-1e-300, -1e300), (1e-300, 1e300), (1.0, 0.0)], false),
             (
@@ -1244,7 +1278,7 @@ mod tests {
             ),
             (
                 vec![(-1.0, 1.0), (-1.0, 2.0), (0.0, 0.0), (1.0, 1.0), (2.0, 0.0)],
-                false,
+                true,
             ),
             // (9 to 16 points, padded to 16: jumps inside and at the end, a -0.0 value; then
             // evenly spread and mildly uneven, with a grid)
@@ -1339,10 +1373,11 @@ mod tests {
             .collect();
         curves.push((jumpy.clone(), true));
         curves.push(((0..100).map(|i| wavy(100, i)).collect(), true));
-        // (refused: a jump at the first point; a `-0.0` first value)
+        // (a jump at the first point, as `first_segment` prepares it; refused: a `-0.0` first
+        // value)
         let mut first_jump = jumpy.clone();
         first_jump[1].0 = first_jump[0].0;
-        curves.push((first_jump.clone(), false));
+        curves.push((first_jump.clone(), true));
         let mut minus_zero = (0..20).map(|i| wavy(20, i)).collect::<Vec<_>>();
         minus_zero[0].1 = -0.0;
         curves.push((minus_zero, false));

@@ -1394,6 +1394,27 @@ impl State {
     }
 }
 
+/// Fewest MAS for the pull step in a network with an LNL curve that jumps at its first point, as
+/// the sticking spring of FORMALISM.md does ([`jumps_first`]; such a curve evaluates eight at a
+/// time, `curve.rs`'s `first_segment`). The smallest such networks measured went either way: the
+/// reconfigurable instrument (60 MAS, three CEL, nine sticking springs among 129 links) rendered
+/// 1.4x slower with the pull step than with the step it takes otherwise (the compact or gather
+/// step; its nine springs alone made the pull step 0.2 s slower in 24 s of sound, the other step
+/// no slower), a random network of 64 MAS of sticking springs 1.7x faster; from 256 MAS on,
+/// random networks of them ran 2.2x to 3x faster (docs/BENCHMARKS.md, forty-seventh and
+/// forty-eighth sessions).
+const JUMPS_PULL_MIN: usize = 256;
+
+/// Whether an LNL curve of `net` jumps at its first point ([`JUMPS_PULL_MIN`]).
+fn jumps_first(net: &Network) -> bool {
+    let jumps = |c: &Curve| {
+        let mut p = c.points();
+        matches!((p.next(), p.next()), (Some(a), Some(b)) if a.0 == b.0)
+    };
+    (net.links.iter())
+        .any(|l| matches!(&l.law, Interaction::Lnl { lk, lz } if jumps(lk) || jumps(lz)))
+}
+
 impl Kernel {
     /// Compiles `net`, choosing how to step it: a network of at most [`COMPACT_MAX`] moving
     /// materials whose links and MAS are mostly read through index lists (small instruments,
@@ -1432,7 +1453,10 @@ impl Kernel {
         }
         let mut k = Kernel::choose(net);
         k.simd = simd;
-        if (k.compact || k.scattered || k.mostly_indexed()) && pull::Pull::new(&k).is_some() {
+        if (k.compact || k.scattered || k.mostly_indexed())
+            && (k.n_mas >= JUMPS_PULL_MIN || !jumps_first(net))
+            && pull::Pull::new(&k).is_some()
+        {
             // stored again with each MAS near its neighbours ([`Mobiles::Local`]), for the
             // pull step's reads of their pairs; the other steps (observers, replays) take any
             // storage order. Whether the network is scattered (for the threads' threshold) is
@@ -5159,8 +5183,9 @@ mod tests {
         let avx512 = Avx512::detect().is_some();
         // (a CPU with AVX2 alone takes the pull step too, for the networks of `two`)
         let pulls = Simd::detect() != Simd::None;
-        // refused: a zero curve with curves that are not, a curve with a jump first, pairs of
-        // curves mixed in every row; taken: two pairs of curves of other point counts
+        // refused: a zero curve with curves that are not, a curve with a jump first in fewer
+        // than `JUMPS_PULL_MIN` MAS, pairs of curves mixed in every row; taken: two pairs of
+        // curves of other point counts, and a curve with a jump first in as many MAS
         let mut two = lnl_springs(1, 40, 0);
         two.links[5].law = Interaction::Lnl {
             lk: Curve::new(&[(-1.0, -0.01), (1.0, 0.01)]).unwrap(),
@@ -5183,15 +5208,19 @@ mod tests {
             Engine::new(&two).k.pull.map(|p| p.curve_pairs()),
             pulls.then_some(2)
         );
-        let jump = springs(
-            1,
-            40,
-            Some(Interaction::Lnl {
-                lk: Curve::new(&[(0.0, -0.01), (0.0, 0.01), (1.0, 0.02)]).unwrap(),
-                lz: Curve::new(&[]).unwrap(),
-            }),
-        );
-        for net in [zero, jump, every_row] {
+        let jump = |n| {
+            springs(
+                1,
+                n,
+                Some(Interaction::Lnl {
+                    lk: Curve::new(&[(0.0, -0.01), (0.0, 0.01), (1.0, 0.02)]).unwrap(),
+                    lz: Curve::new(&[]).unwrap(),
+                }),
+            )
+        };
+        let taken = Engine::new(&jump(JUMPS_PULL_MIN)).k.pull.is_some();
+        assert_eq!(taken, pulls);
+        for net in [zero, jump(JUMPS_PULL_MIN - 1), every_row] {
             assert!(Engine::new(&net).k.pull.is_none());
         }
         assert!(Engine::new(&springs(1, 8, None)).k.pull.is_none()); // (fewer than PULL_MIN MAS)
@@ -5199,7 +5228,8 @@ mod tests {
         // (kinds: 0 springs and dampers, 1 BUTs among them, 2 to 5 LNL networks of `mix` 0 to 3,
         // 6 one BUT among springs and dampers, 7 BUTs and LNLs among them, 8 an LNL network of
         // four pairs of curves and one BUT, 9 to 12 LNL networks of `mix` 4 to 7: curves
-        // drawn point by point, 13 to 17 of `mix` 8 to 12: pairs of 40 points, with others)
+        // drawn point by point, 13 to 17 of `mix` 8 to 12: pairs of 40 points, with others, 18
+        // of `mix` 13: sticking springs)
         for (seed, n, kind) in [
             (1, 16, 0),
             (2, 40, 0),
@@ -5245,19 +5275,26 @@ mod tests {
             (42, 500, 16),
             (43, 40, 17),
             (44, 500, 17),
+            (46, 500, 18),
         ] {
             let net = match kind {
                 0 => springs(seed, n, None),
                 1 | 6 => but_springs(seed, n, kind == 1),
                 7 | 8 => but_lnl_springs(seed, n, kind == 8),
-                9..=17 => lnl_springs(seed, n, kind - 5),
+                9..=18 => lnl_springs(seed, n, kind - 5),
                 _ => lnl_springs(seed, n, kind - 2),
             };
+            // (the links whose force is zero some of the time: the BUTs, and the sticking springs
+            // of zero viscous curve)
             let but_links: Vec<LinkId> = (0..net.links.len() as u32)
                 .map(LinkId)
-                .filter(|l| matches!(net.links[l.index()].law, Interaction::But { .. }))
+                .filter(|l| match &net.links[l.index()].law {
+                    Interaction::But { .. } => true,
+                    Interaction::Lnl { lz, .. } => kind == 18 && lz.is_empty(),
+                    _ => false,
+                })
                 .collect();
-            // (whether each BUT's force has been zero, and non-zero, after a block)
+            // (whether each of those forces has been zero, and non-zero, after a block)
             let mut seen = vec![[false; 2]; but_links.len()];
             let mut pulled = Engine::new(&net);
             // (a CPU with AVX2 alone takes some of them too:
@@ -5286,7 +5323,7 @@ mod tests {
                 // and another by region; two alone)
                 let longs = [1, 1, 1, 2, 2].get(usize::from(kind).wrapping_sub(13));
                 assert_eq!(pull.long_pairs(), *longs.unwrap_or(&0), "network {seed}");
-                if kind >= 13 {
+                if (13..=17).contains(&kind) {
                     let pairs = [0, 1, 3, 1, 0][usize::from(kind - 13)];
                     assert_eq!(pull.curve_pairs(), pairs, "network {seed}");
                 }
@@ -5300,6 +5337,11 @@ mod tests {
                     assert_eq!(pull.curve_pairs(), k % 2 + 1, "network {seed}");
                     let points = [(8, 4), (8, 8), (16, 2), (16, 16)][k];
                     assert_eq!(pull.curve_points(), Some(points), "network {seed}");
+                }
+                // (one pair of a sticking spring, with its jumps, and the zero curve)
+                if kind == 18 {
+                    assert_eq!(pull.curve_pairs(), 1, "network {seed}");
+                    assert_eq!(pull.curve_points(), Some((4, 0)), "network {seed}");
                 }
                 // (rows with BUT and LNL lanes both)
                 if kind == 7 || kind == 8 {
@@ -5353,7 +5395,12 @@ mod tests {
                 moved |= a.iter().any(|&v| v != a[0]);
             }
             assert!(moved);
-            toggled += seen.iter().filter(|s| s[0] && s[1]).count();
+            let caught = seen.iter().filter(|s| s[0] && s[1]).count();
+            assert!(
+                kind != 18 || caught > 0,
+                "network {seed}: no spring caught and let go"
+            );
+            toggled += caught;
         }
         assert!(toggled >= 10, "{toggled} BUTs came into and out of contact");
     }
@@ -5370,7 +5417,8 @@ mod tests {
     /// second pair (padded to 16 and 16); 8, as 2 with a pair of 40 and 3 points
     /// ([`sampled_pair`]); 9, as 8 with the last third of the links of 3's second pair; 10, as 3
     /// with 8's pair first; 11, as 9 with the middle third of a second pair of more than 16
-    /// points ([`resampled_pair`]); 12, as 8 with the last two thirds of that second pair.
+    /// points ([`resampled_pair`]); 12, as 8 with the last two thirds of that second pair; 13, as
+    /// 2 with the sticking device's pair ([`sticking_pair`]).
     fn lnl_springs(seed: u64, n: usize, mix: u8) -> Network {
         let mut net = springs(seed, n, None);
         let [mut lnl, mut others @ ..] = lnl_pairs();
@@ -5384,6 +5432,7 @@ mod tests {
             4 | 5 => [lnl, others[0]] = [first, second],
             6 | 7 => [lnl, others[0]] = [fine, second],
             8..=12 => lnl = sampled_pair(),
+            13 => lnl = sticking_pair(),
             _ => {}
         }
         let count = net.links.len();
@@ -5641,6 +5690,17 @@ mod tests {
                 &[(-0.003, -1e-6), (0.003, 1e-6)],
             ),
         ]
+    }
+
+    /// The simple sticking device's LNL (FORMALISM.md): a spring of stiffness 0.05 that exists
+    /// only while the elongation is within ±0.004 (4 points, a jump at the first and at the
+    /// last), and the zero viscous curve.
+    fn sticking_pair() -> Interaction {
+        let (s, k) = (0.004, 0.05);
+        Interaction::Lnl {
+            lk: Curve::new(&[(-s, 0.0), (-s, -k * s), (s, k * s), (s, 0.0)]).unwrap(),
+            lz: Curve::zero(),
+        }
     }
 
     /// A pair of LNL curves of more points than an [`ExactPair`] holds: a spring sampled from a
@@ -6631,6 +6691,34 @@ mod tests {
             }
         }
         nets.push(("900 LNL 2 3, M any".into(), heavy));
+        // the sticking spring (FORMALISM.md): 4 points, a jump at the first (as
+        // `first_segment` prepares it) and at the last, with a damper or the zero curve, free
+        // ends; the motion crosses the jumps (the struck MAS leaves its springs' window after a
+        // step, and the others stretch theirs: a spring of zero viscous curve pulls only within
+        // its window, so its force is zero at some block's end and not at another's)
+        let sticking: &[(f64, f64)] = &[
+            (-0.012, 0.0),
+            (-0.012, -1.2e-3),
+            (0.012, 1.2e-3),
+            (0.012, 0.0),
+        ];
+        nets.push((
+            "1000 LNL 4 3, sticking".into(),
+            bank(1, 1000, lnl(sticking, damper)),
+        ));
+        let mut free = bank(1, 600, lnl(sticking, &[]));
+        free_both(&mut free);
+        let mut e = Engine::new(&free);
+        let mut caught = vec![[false; 2]; free.links.len()];
+        let mut out = vec![0.0; 5 * e.channels()];
+        for _ in 0..200 {
+            e.process(5, &mut out).unwrap();
+            for (l, c) in caught.iter_mut().enumerate() {
+                c[usize::from(e.link_force(LinkId(l as u32)) != 0.0)] = true;
+            }
+        }
+        assert!(caught.iter().filter(|c| c[0] && c[1]).count() > 10);
+        nets.push(("600 LNL 4 0, sticking, free ends".into(), free));
         // curves drawn point by point, of 5 to 8 points (padded to 8), with one of 3 (to 4) or 0
         let drawn: &[(f64, f64)] = &[
             (-0.008, -1.2e-3),
