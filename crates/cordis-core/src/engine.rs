@@ -6692,10 +6692,11 @@ mod tests {
         }
         nets.push(("900 LNL 2 3, M any".into(), heavy));
         // the sticking spring (FORMALISM.md): 4 points, a jump at the first (as
-        // `first_segment` prepares it) and at the last, with a damper or the zero curve, free
-        // ends; the motion crosses the jumps (the struck MAS leaves its springs' window after a
-        // step, and the others stretch theirs: a spring of zero viscous curve pulls only within
-        // its window, so its force is zero at some block's end and not at another's)
+        // `first_segment` prepares it) and at the last, with a damper (fixed ends) or the zero
+        // curve (free ends); the motion crosses the jumps (the struck MAS leaves its springs'
+        // window of ±0.012 within two steps, and the others stretch theirs: a spring of zero
+        // viscous curve pulls only within its window, so its force is zero at some block's end
+        // and not at another's)
         let sticking: &[(f64, f64)] = &[
             (-0.012, 0.0),
             (-0.012, -1.2e-3),
