@@ -264,7 +264,11 @@ impl AnyPair {
 /// compiled for each pair: [`ExactPair::visit`]).
 trait PairFn {
     type Out;
-    fn call<const A: usize, const B: usize>(self, k: ExactCurve<A>, z: ExactCurve<B>) -> Self::Out;
+    fn call<const A: usize, const B: usize>(
+        self,
+        k: &ExactCurve<A>,
+        z: &ExactCurve<B>,
+    ) -> Self::Out;
 }
 
 /// Generates `ExactPair` (one variant per pair of point counts), its constructor and the
@@ -353,8 +357,8 @@ macro_rules! exact_pairs {
                     type Out = Option<ExactPair>;
                     fn call<const A: usize, const B: usize>(
                         self,
-                        k: ExactCurve<A>,
-                        z: ExactCurve<B>,
+                        k: &ExactCurve<A>,
+                        z: &ExactCurve<B>,
                     ) -> Option<ExactPair> {
                         match (self.0, self.1) {
                             $(($a, $b) => Some(ExactPair::$v(k.padded()?, z.padded()?)),)*
@@ -377,7 +381,7 @@ macro_rules! exact_pairs {
 
             /// `f` called with the two curves, at their point counts.
             #[inline(always)]
-            fn visit<F: PairFn>(self, f: F) -> F::Out {
+            fn visit<F: PairFn>(&self, f: F) -> F::Out {
                 match self {
                     $(ExactPair::$v(k, z) => f.call(k, z),)*
                 }

@@ -307,7 +307,7 @@ struct LnlStrings<'a> {
 impl PairFn for LnlStrings<'_> {
     type Out = ();
 
-    fn call<const A: usize, const B: usize>(self, k: ExactCurve<A>, z: ExactCurve<B>) {
+    fn call<const A: usize, const B: usize>(self, k: &ExactCurve<A>, z: &ExactCurve<B>) {
         let LnlStrings {
             bank,
             rows,
@@ -316,6 +316,7 @@ impl PairFn for LnlStrings<'_> {
             ms,
             next,
         } = self;
+        let (k, z) = (*k, *z);
         let law = move |_: &Sheet| LnlLinks(k, z);
         Sheet::strings_as(bank, rows, law, x, xp, ms, next);
     }

@@ -914,7 +914,7 @@ impl Pull {
                 // `Isa::Avx512` (asserted) only with the token, the CPU's proof of it.
                 assert!(matches!(self.isa, Isa::Avx512(_)));
                 let curves = unsafe { LongCurves::new(long, self.full_rows) };
-                self.groups_with(curves, now, params, out)
+                self.groups_with(&curves, now, params, out)
             }
             Some(pair) => pair.visit(WithCurves {
                 pull: self,
@@ -923,10 +923,12 @@ impl Pull {
                 out,
             }),
             None if !self.thresholds.is_empty() && self.full_rows => {
-                self.groups_with(Buts::<false>, now, params, out)
+                self.groups_with(&Buts::<false>, now, params, out)
             }
-            None if !self.thresholds.is_empty() => self.groups_with(Buts::<true>, now, params, out),
-            None => self.groups_with(Springs, now, params, out),
+            None if !self.thresholds.is_empty() => {
+                self.groups_with(&Buts::<true>, now, params, out)
+            }
+            None => self.groups_with(&Springs, now, params, out),
         }
     }
 
@@ -937,7 +939,7 @@ impl Pull {
     #[inline(never)]
     fn groups_with<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, T: Terms>(
         &self,
-        terms: T,
+        terms: &T,
         now: Now,
         params: &impl Fn(Range<usize>) -> I,
         out: Slots,
@@ -974,7 +976,7 @@ impl Pull {
         const WHOLE: bool,
     >(
         &self,
-        terms: T,
+        terms: &T,
         now: Now,
         params: &impl Fn(Range<usize>) -> I,
         m: &f64,
@@ -1162,7 +1164,7 @@ trait Terms: Copy {
     /// # Safety
     /// The CPU has AVX-512F and the calling function is compiled with it; every offset of the
     /// rows is that of a pair within the buffer at `group.base`.
-    unsafe fn sum<'p>(self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d;
+    unsafe fn sum<'p>(&self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d;
 }
 
 /// RES, FRO and REF terms ([`sum`]).
@@ -1272,9 +1274,9 @@ unsafe fn long_forces(pair: &AnyPair, d: __m512d, dv: __m512d) -> __m512d {
 #[cfg(target_arch = "x86_64")]
 impl Terms for LongCurves<'_> {
     #[inline(always)]
-    unsafe fn sum<'p>(self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d {
+    unsafe fn sum<'p>(&self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d {
         // SAFETY: the caller's promise.
-        unsafe { sum_of_one(&self, self.full_rows, pull, group) }
+        unsafe { sum_of_one(self, self.full_rows, pull, group) }
     }
 }
 
@@ -1340,7 +1342,7 @@ impl<const A: usize, const B: usize> RowCurves<'_, A, B> {
 #[cfg(target_arch = "x86_64")]
 impl Terms for Springs {
     #[inline(always)]
-    unsafe fn sum<'p>(self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d {
+    unsafe fn sum<'p>(&self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d {
         // SAFETY: the caller's promise.
         unsafe { sum(&pull.rows[group.rows.clone()], group) }
     }
@@ -1349,7 +1351,7 @@ impl Terms for Springs {
 #[cfg(target_arch = "x86_64")]
 impl<const SKIP: bool> Terms for Buts<SKIP> {
     #[inline(always)]
-    unsafe fn sum<'p>(self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d {
+    unsafe fn sum<'p>(&self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d {
         let rows = group.rows.clone();
         let ts = &pull.thresholds[rows.clone()];
         // SAFETY: the caller's promise; `ts` has a row of thresholds for each row (`new`).
@@ -1360,16 +1362,16 @@ impl<const SKIP: bool> Terms for Buts<SKIP> {
 #[cfg(target_arch = "x86_64")]
 impl<const A: usize, const B: usize> Terms for Curves<A, B> {
     #[inline(always)]
-    unsafe fn sum<'p>(self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d {
+    unsafe fn sum<'p>(&self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d {
         // SAFETY: the caller's promise.
-        unsafe { sum_of_one(&self, self.full_rows, pull, group) }
+        unsafe { sum_of_one(self, self.full_rows, pull, group) }
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 impl<const A: usize, const B: usize> Terms for CurveTable<'_, A, B> {
     #[inline(always)]
-    unsafe fn sum<'p>(self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d {
+    unsafe fn sum<'p>(&self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d {
         let rows = group.rows.clone();
         let forces = RowCurves::<A, B> {
             table: &pull.table,
@@ -1390,7 +1392,7 @@ impl<const A: usize, const B: usize> Curves<A, B> {
     /// # Safety
     /// The CPU has AVX-512F (see [`V8`]).
     #[inline(always)]
-    unsafe fn new(k: ExactCurve<A>, z: ExactCurve<B>, full_rows: bool) -> Self {
+    unsafe fn new(k: &ExactCurve<A>, z: &ExactCurve<B>, full_rows: bool) -> Self {
         // SAFETY: the caller's promise.
         unsafe {
             Curves {
@@ -1430,21 +1432,39 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
 {
     type Out = ();
 
-    fn call<const A: usize, const B: usize>(self, k: ExactCurve<A>, z: ExactCurve<B>) {
+    fn call<const A: usize, const B: usize>(self, k: &ExactCurve<A>, z: &ExactCurve<B>) {
+        assert!(matches!(self.pull.isa, Isa::Avx512(_)));
+        // SAFETY: a pull step has `Isa::Avx512` only with the token, the CPU's proof of
+        // AVX-512F, which `avx512` needs.
+        unsafe { self.avx512(k, z) }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I>
+    WithCurves<'_, '_, P>
+{
+    /// [`PairFn::call`], compiled with AVX-512F, so that the curves' vectors ([`Curves::new`])
+    /// are built in registers (in `call` itself, compiled without it, each broadcast was a call
+    /// and each vector crossed the stack 16 bytes at a time: 9 % of the time of a network of 64
+    /// MAS of LNL links, forty-ninth session).
+    ///
+    /// # Safety
+    /// The CPU has AVX-512F (which `V8` and `groups_with` need).
+    #[target_feature(enable = "avx512f")]
+    unsafe fn avx512<const A: usize, const B: usize>(self, k: &ExactCurve<A>, z: &ExactCurve<B>) {
         let WithCurves {
             pull,
             now,
             params,
             out,
         } = self;
-        assert!(matches!(pull.isa, Isa::Avx512(_)));
-        // SAFETY: a pull step has `Isa::Avx512` only with the token, the CPU's proof of
-        // AVX-512F, which `V8` and `groups_with` need.
+        // SAFETY: the caller's promise.
         unsafe {
             let full_rows = pull.full_rows;
             if !pull.several {
                 let curves = Curves::new(k, z, full_rows);
-                pull.groups_with(curves, now, params, out);
+                pull.groups_with(&curves, now, params, out);
             } else {
                 // (each run of the groups: its pair's curves, a long pair's, or the table)
                 let table = CurveTable::<A, B> {
@@ -1455,14 +1475,14 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
                     Some(at @ LONGS..) => {
                         let long = &pull.longs[(at - LONGS) as usize];
                         let curves = LongCurves::new(long, full_rows);
-                        pull.groups_with(curves, now, params, run);
+                        pull.groups_with(&curves, now, params, run);
                     }
                     Some(at) => {
                         let (k, z) = read_pair::<A, B>(&pull.table, at);
-                        let curves = Curves::new(k, z, full_rows);
-                        pull.groups_with(curves, now, params, run);
+                        let curves = Curves::new(&k, &z, full_rows);
+                        pull.groups_with(&curves, now, params, run);
                     }
-                    None => pull.groups_with(table, now, params, run),
+                    None => pull.groups_with(&table, now, params, run),
                 });
             }
         }

@@ -67,7 +67,7 @@ impl Pull {
                 assert!(self.longs.is_empty());
                 macro_rules! with {
                     ($terms:expr) => {
-                        self.groups_avx2_with($terms, now, params, out)
+                        self.groups_avx2_with(&$terms, now, params, out)
                     };
                 }
                 let buts = !self.thresholds.is_empty();
@@ -89,7 +89,7 @@ impl Pull {
     #[inline(never)]
     fn groups_avx2_with<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, T: Terms4>(
         &self,
-        terms: T,
+        terms: &T,
         now: Now,
         params: &impl Fn(Range<usize>) -> I,
         out: Slots,
@@ -126,7 +126,7 @@ impl Pull {
         const PER_MAS: bool,
     >(
         &self,
-        terms: T,
+        terms: &T,
         now: Now,
         params: &impl Fn(Range<usize>) -> I,
         m: &f64,
@@ -299,7 +299,7 @@ trait Terms4: Copy {
     /// # Safety
     /// The CPU has AVX2 and the calling function is compiled with it; every offset of the rows is
     /// that of a pair within the buffer at `group.base`.
-    unsafe fn sum<'p>(self, pull: &Pull, group: Group4<impl Params<'p>>) -> [__m256d; 2];
+    unsafe fn sum<'p>(&self, pull: &Pull, group: Group4<impl Params<'p>>) -> [__m256d; 2];
 }
 
 /// REF terms, or RES, FRO and REF terms when `M` ([`sum`]).
@@ -308,7 +308,7 @@ struct Refs<const M: bool>;
 
 impl<const M: bool> Terms4 for Refs<M> {
     #[inline(always)]
-    unsafe fn sum<'p>(self, pull: &Pull, group: Group4<impl Params<'p>>) -> [__m256d; 2] {
+    unsafe fn sum<'p>(&self, pull: &Pull, group: Group4<impl Params<'p>>) -> [__m256d; 2] {
         // SAFETY: the caller's promise.
         unsafe { sum::<M>(&pull.rows[group.rows.clone()], group) }
     }
@@ -321,7 +321,7 @@ struct Buts4<const SKIP: bool, const M: bool>;
 
 impl<const SKIP: bool, const M: bool> Terms4 for Buts4<SKIP, M> {
     #[inline(always)]
-    unsafe fn sum<'p>(self, pull: &Pull, group: Group4<impl Params<'p>>) -> [__m256d; 2] {
+    unsafe fn sum<'p>(&self, pull: &Pull, group: Group4<impl Params<'p>>) -> [__m256d; 2] {
         let rows = group.rows.clone();
         let ts = &pull.thresholds[rows.clone()];
         // SAFETY: the caller's promise; `ts` has a row of thresholds for each row (`Pull::new`).
@@ -342,11 +342,11 @@ struct Curves4<C: Forces4> {
 
 impl<C: Forces4 + Copy> Terms4 for Curves4<C> {
     #[inline(always)]
-    unsafe fn sum<'p>(self, pull: &Pull, group: Group4<impl Params<'p>>) -> [__m256d; 2] {
+    unsafe fn sum<'p>(&self, pull: &Pull, group: Group4<impl Params<'p>>) -> [__m256d; 2] {
         let rows = group.rows.clone();
         let ts = pull.row_thresholds(rows.clone());
         // SAFETY: the caller's promise; `ts` is empty or has a row for each row (`Pull::new`).
-        unsafe { sum_lnl(&self, &pull.rows[rows], ts, group) }
+        unsafe { sum_lnl(self, &pull.rows[rows], ts, group) }
     }
 }
 
@@ -420,7 +420,7 @@ struct CurveTable4<'a, const A: usize, const B: usize> {
 
 impl<const A: usize, const B: usize> Terms4 for CurveTable4<'_, A, B> {
     #[inline(always)]
-    unsafe fn sum<'p>(self, pull: &Pull, group: Group4<impl Params<'p>>) -> [__m256d; 2] {
+    unsafe fn sum<'p>(&self, pull: &Pull, group: Group4<impl Params<'p>>) -> [__m256d; 2] {
         let rows = group.rows.clone();
         let curves = Curves4 {
             c: RowCurves4::<A, B> {
@@ -528,18 +528,33 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
 {
     type Out = ();
 
-    fn call<const A: usize, const B: usize>(self, k: ExactCurve<A>, z: ExactCurve<B>) {
+    fn call<const A: usize, const B: usize>(self, k: &ExactCurve<A>, z: &ExactCurve<B>) {
+        // SAFETY: this step runs only where `Simd::detect` found AVX2 (see `Pull::step`), which
+        // `avx2` needs.
+        unsafe { self.avx2(k, z) }
+    }
+}
+
+impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I>
+    WithCurves4<'_, '_, P>
+{
+    /// [`PairFn::call`], compiled with AVX2 (as the AVX-512 step's `WithCurves::avx512`: the
+    /// curves' vectors built in registers).
+    ///
+    /// # Safety
+    /// The CPU has AVX2 (which `V4` and `groups_avx2_with` need).
+    #[target_feature(enable = "avx2")]
+    unsafe fn avx2<const A: usize, const B: usize>(self, k: &ExactCurve<A>, z: &ExactCurve<B>) {
         let WithCurves4 {
             pull,
             now,
             params,
             out,
         } = self;
-        // SAFETY: this step runs only where `Simd::detect` found AVX2 (see `Pull::step`), which
-        // `V4` and `groups_avx2_with` need.
+        // SAFETY: the caller's promise.
         unsafe {
             let (full_rows, masked) = (pull.full_rows, pull.masked);
-            let pair4 = |k: ExactCurve<A>, z: ExactCurve<B>| Curves4 {
+            let pair4 = |k: &ExactCurve<A>, z: &ExactCurve<B>| Curves4 {
                 c: Pair4 {
                     k: k.wide::<V4>(),
                     z: z.wide::<V4>(),
@@ -549,7 +564,7 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
             };
             if !pull.several {
                 let curves = pair4(k, z);
-                pull.groups_avx2_with(curves, now, params, out);
+                pull.groups_avx2_with(&curves, now, params, out);
             } else {
                 // (each run of the groups: its pair's curves, a long pair's, or the table)
                 let table = CurveTable4::<A, B> {
@@ -565,14 +580,14 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I> Pa
                             full_rows,
                             masked,
                         };
-                        pull.groups_avx2_with(curves, now, params, run);
+                        pull.groups_avx2_with(&curves, now, params, run);
                     }
                     Some(at) => {
                         let (k, z) = read_pair::<A, B>(&pull.table, at);
-                        let curves = pair4(k, z);
-                        pull.groups_avx2_with(curves, now, params, run);
+                        let curves = pair4(&k, &z);
+                        pull.groups_avx2_with(&curves, now, params, run);
                     }
-                    None => pull.groups_avx2_with(table, now, params, run),
+                    None => pull.groups_avx2_with(&table, now, params, run),
                 });
             }
         }

@@ -1,0 +1,29 @@
+#!/bin/bash
+# Times `cordis render` of one model file with several builds of the CLI, alternating them round by
+# round so that a noisy machine's drift falls on all alike, and checks that their outputs are the
+# same bytes (docs/BENCHMARKS.md, "Comparing two engines"; needs python3).
+#
+#   scripts/render-ab.sh ROUNDS MODEL CLI [CLI...]
+#
+# Each CLI is a copy of target/release/cordis (cargo build --release -p cordis-cli), one per
+# commit, under distinct file names. Prints, per build, the median, least and most wall-clock
+# seconds of its renders (parsing and writing the WAV file included), then the MD5 sum of each
+# build's last output.
+set -euo pipefail
+R=$1; M=$2; shift 2
+OUT=${OUT:-$(mktemp -d)}
+for i in $(seq "$R"); do for b in "$@"; do
+  s=$(date +%s.%N)
+  "$b" render "$M" -o "$OUT/$(basename "$b").wav" > /dev/null 2>&1
+  e=$(date +%s.%N)
+  echo "$(basename "$b") $s $e"
+done; done | python3 -c '
+import sys, statistics as st, collections
+d = collections.defaultdict(list)
+for l in sys.stdin:
+    b, s, e = l.split()
+    d[b].append(float(e) - float(s))
+for b, v in d.items():
+    print(f"{b:24s} median {st.median(v):.3f} s  min {min(v):.3f}  max {max(v):.3f}  n {len(v)}")
+'
+for b in "$@"; do md5sum "$OUT/$(basename "$b").wav"; done
