@@ -1406,7 +1406,9 @@ impl State {
 /// step; its nine springs alone made the pull step 0.2 s slower in 24 s of sound, the other step
 /// no slower), a random network of 64 MAS of sticking springs 1.7x faster; from 256 MAS on,
 /// random networks of them ran 2.2x to 3x faster (docs/BENCHMARKS.md, forty-seventh and
-/// forty-eighth sessions).
+/// forty-eighth sessions, on Emerald Rapids). On Zen 5, since the pull step builds its curves'
+/// vectors with AVX-512 (forty-ninth session), the instrument renders 5 % faster with it and random
+/// networks of 16 to 255 MAS 1.4x to 2.6x; kept until measured again where it was set.
 const JUMPS_PULL_MIN: usize = 256;
 
 /// Whether an LNL curve of `net` jumps at its first point ([`JUMPS_PULL_MIN`]).
