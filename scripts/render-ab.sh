@@ -8,13 +8,15 @@
 # Each CLI is a copy of target/release/cordis (cargo build --release -p cordis-cli), one per
 # commit, under distinct file names. Prints, per build, the median, least and most wall-clock
 # seconds of its renders (parsing and writing the WAV file included), then the MD5 sum of each
-# build's last output.
+# build's last output, and exits with 1 if the outputs differ (or a render fails: its messages).
 set -euo pipefail
 R=$1; M=$2; shift 2
 OUT=${OUT:-$(mktemp -d)}
 for i in $(seq "$R"); do for b in "$@"; do
   s=$(date +%s.%N)
-  "$b" render "$M" -o "$OUT/$(basename "$b").wav" > /dev/null 2>&1
+  if ! "$b" render "$M" -o "$OUT/$(basename "$b").wav" > "$OUT/log" 2>&1; then
+    cat "$OUT/log" >&2; exit 1
+  fi
   e=$(date +%s.%N)
   echo "$(basename "$b") $s $e"
 done; done | python3 -c '
@@ -26,4 +28,9 @@ for l in sys.stdin:
 for b, v in d.items():
     print(f"{b:24s} median {st.median(v):.3f} s  min {min(v):.3f}  max {max(v):.3f}  n {len(v)}")
 '
-for b in "$@"; do md5sum "$OUT/$(basename "$b").wav"; done
+sums=$(for b in "$@"; do md5sum "$OUT/$(basename "$b").wav"; done)
+echo "$sums"
+if [ "$(echo "$sums" | awk '{print $1}' | sort -u | wc -l)" -ne 1 ]; then
+  echo "the outputs differ" >&2; exit 1
+fi
+echo "the outputs are the same bytes"
