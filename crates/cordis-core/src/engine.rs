@@ -75,6 +75,16 @@ impl Law {
     }
 }
 
+/// A link an output reads, for the steps that keep no force buffer (the pull and grid steps,
+/// [`Kernel::record_with`]): its slot, its ends' slots and its law.
+#[derive(Clone, Copy, Debug)]
+struct Recorded {
+    slot: u32,
+    a: u32,
+    b: u32,
+    law: Law,
+}
+
 /// Links `start..end` (declaration order) all have law `law`. When `uniform`, they also all have
 /// the parameters (K, Z, S, or the curves) of link `start`, so the loop reads them once.
 #[derive(Clone, Copy, Debug)]
@@ -2633,9 +2643,9 @@ impl Kernel {
         law
     }
 
-    /// The links the outputs read (SOF and sums of them), each a run of its own, for the steps
-    /// that keep no force buffer (the pull and grid steps): `None` if one is in no run.
-    fn recorded_links(&self) -> Option<Vec<Run>> {
+    /// The links the outputs read (SOF and sums of them), for the steps that keep no force
+    /// buffer (the pull and grid steps): `None` if one is in no run.
+    fn recorded_links(&self) -> Option<Vec<Recorded>> {
         let mut recorded: Vec<usize> = Vec::new();
         for c in &self.channels {
             match *c {
@@ -2651,23 +2661,44 @@ impl Kernel {
         }
         recorded.sort_unstable();
         recorded.dedup();
-        recorded.into_iter().map(|l| self.link_run(l)).collect()
+        let recorded = recorded.into_iter().map(|l| {
+            let run = self.link_run(l)?;
+            Some(Recorded {
+                slot: l as u32,
+                a: self.la[l],
+                b: self.lb[l],
+                law: run.law,
+            })
+        });
+        recorded.collect()
     }
 
     /// The outputs of a step of the pull or grid step: the forces of the `recorded` links (see
-    /// [`Kernel::recorded_links`]) into `sf`, then `frame`.
+    /// [`Kernel::recorded_links`]) into `sf`, then `frame`. Each link is computed alone, as
+    /// [`Kernel::each`] computes a link read through the index lists (one run of its own each
+    /// through [`Kernel::run_links`] took 13 % of the reconfigurable instrument's pull step for
+    /// its six, docs/BENCHMARKS.md, fiftieth session).
     #[inline]
     fn record_with(
         &self,
-        recorded: &[Run],
+        recorded: &[Recorded],
         cur: &[f64],
         prev: &[f64],
         sf: &mut [f64],
         frame: &mut [f64],
     ) {
-        let state = Positions::new(self, cur, prev);
-        for run in recorded {
-            self.run_links(run, &state, &mut sf[run.start..run.end]);
+        for r in recorded {
+            let (l, a, b) = (r.slot as usize, r.a as usize, r.b as usize);
+            let (xa, pa, xb, pb) = (cur[a], prev[a], cur[b], prev[b]);
+            let (va, vb) = (xa - pa, xb - pb);
+            let (k, z) = (self.lk[l], self.lz[l]);
+            sf[l] = match r.law {
+                Law::Res => ResLaw::force(k, z, 0.0, xa, va, xb, vb),
+                Law::Fro => FroLaw::force(k, z, 0.0, xa, va, xb, vb),
+                Law::Ref => RefLaw::force(k, z, 0.0, xa, va, xb, vb),
+                Law::But => ButLaw::force(k, z, self.ls[l], xa, va, xb, vb),
+                Law::Lnl => self.lnl[self.lnl_of[l] as usize].force(xa - xb, va - vb),
+            };
         }
         self.record(cur, &sf[..self.nl], frame);
     }
@@ -5231,6 +5262,7 @@ mod tests {
         }
         assert!(Engine::new(&springs(1, 8, None)).k.pull.is_none()); // (fewer than PULL_MIN MAS)
         let mut toggled = 0;
+        let mut read_laws = Vec::new();
         // (kinds: 0 springs and dampers, 1 BUTs among them, 2 to 5 LNL networks of `mix` 0 to 3,
         // 6 one BUT among springs and dampers, 7 BUTs and LNLs among them, 8 an LNL network of
         // four pairs of curves and one BUT, 9 to 12 LNL networks of `mix` 4 to 7: curves
@@ -5283,13 +5315,41 @@ mod tests {
             (44, 500, 17),
             (46, 500, 18),
         ] {
-            let net = match kind {
+            let mut net = match kind {
                 0 => springs(seed, n, None),
                 1 | 6 => but_springs(seed, n, kind == 1),
                 7 | 8 => but_lnl_springs(seed, n, kind == 8),
                 9..=18 => lnl_springs(seed, n, kind - 5),
                 _ => lnl_springs(seed, n, kind - 2),
             };
+            // (the outputs read the last link of each law the network has and the links to
+            // the CEL, alone and summed: `Kernel::record_with`)
+            let mut read: Vec<LinkId> = Vec::new();
+            let mut laws = Vec::new();
+            let cel = MatId(n as u32);
+            for (i, link) in net.links.iter().enumerate().rev() {
+                let law = std::mem::discriminant(&link.law);
+                if !laws.contains(&law) || link.a == cel || link.b == cel {
+                    read.push(LinkId(i as u32));
+                }
+                if !laws.contains(&law) {
+                    laws.push(law);
+                }
+            }
+            assert!(
+                read.len() > laws.len(),
+                "network {seed}: no link to the CEL"
+            );
+            for law in laws {
+                if !read_laws.contains(&law) {
+                    read_laws.push(law);
+                }
+            }
+            for &l in &read {
+                net.add_force_output(l);
+            }
+            let read = read.into_iter().map(|l| (0.5, Probe::Force(l))).collect();
+            net.add_sum_output(read);
             // (the links whose force is zero some of the time: the BUTs, and the sticking springs
             // of zero viscous curve)
             let but_links: Vec<LinkId> = (0..net.links.len() as u32)
@@ -5409,6 +5469,7 @@ mod tests {
             toggled += caught;
         }
         assert!(toggled >= 10, "{toggled} BUTs came into and out of contact");
+        assert_eq!(read_laws.len(), 5, "outputs read links of every law");
     }
 
     /// [`springs`] with LNL links of one pair of curves, neither odd, the viscous one not zero

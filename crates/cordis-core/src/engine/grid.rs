@@ -99,7 +99,7 @@ use crate::wide::{Vector, V4, V8};
 use super::{by_div, by_inv, AnyPair, ButLaw, ExactPair, Forces, Kernel, Law, LinkLaw, Lnl};
 use super::{Claim, Simd, State, NEG};
 use super::{MasLaw, PairFn};
-use super::{Positions, RefLaw, Roles, Run};
+use super::{Positions, Recorded, RefLaw, Roles, Run};
 use crate::{Interaction, Material, Network};
 
 /// Fewest columns (so that a row has at least one whole block and its tail) and rows.
@@ -416,7 +416,7 @@ pub(super) struct Grid {
     /// fixes compute those on the sheets' MAS themselves).
     outside_inputs: Vec<Range<usize>>,
     /// The links the outputs read (see [`Kernel::recorded_links`]).
-    recorded: Vec<Run>,
+    recorded: Vec<Recorded>,
 }
 
 /// One membrane of a [`Grid`].

@@ -68,8 +68,8 @@ use std::ops::Range;
 use crate::curve::Curve;
 use crate::parallel::{Poisoned, SharedBuf, SpinBarrier, Task};
 
-use super::{AnyPair, Claim, ExactPair, Kernel, Law, Lnl, MasLaw, PairFn, Roles, Run, Simd};
-use super::{State, NEG};
+use super::{AnyPair, Claim, ExactPair, Kernel, Law, Lnl, MasLaw, PairFn, Roles, Simd};
+use super::{Recorded, State, NEG};
 #[cfg(target_arch = "x86_64")]
 use crate::curve::{exact_len, ExactCurve, WideCurve, WideLong};
 use crate::lanes::Avx512;
@@ -100,7 +100,7 @@ const MIN_RUN: usize = 8;
 const PARTS: u32 = 1 << 31;
 
 /// The pairs of curves of more than 16 points ([`Pull::longs`]): pair `i`'s number in
-/// [`CelTerm::Lnl`] and its position in the table in [`Pull::row_curves`], [`Pull::parts`] and
+/// [`CelTerms::lnls`] and its position in the table in [`Pull::row_curves`], [`Pull::parts`] and
 /// [`Pull::runs`] are `LONGS + i` (it is not in the table; every other pair's number and
 /// position is smaller, and every such number below [`PARTS`], checked in `Pull::new`).
 const LONGS: u32 = PARTS - (1 << 20);
@@ -143,19 +143,74 @@ pub(super) struct Share {
     pub(super) slots: Range<usize>,
 }
 
-/// A link term of a CEL.
-#[derive(Clone, Copy, Debug)]
-enum CelTerm {
-    /// `g` from the CEL's side: the other end (storage slot), the law, `K`, `Z`
-    Link(u32, Law, f64, f64),
-    /// A BUT's `g` from the CEL's side: the other end, `K`, `Z`, the threshold `S` (negated where
+/// The terms of the CELs, in their summing order, as runs of one kind: CEL `c`'s runs are
+/// `runs[off[c]..off[c + 1]]`, each `(kind, count)` taking the next `count` terms of the list of
+/// its kind, CEL after CEL. A run is a loop over one kind of term, with no choice between kinds
+/// in it: term by term, the three CELs of the reconfigurable instrument (eleven links each) took
+/// a fifth of its pull step's time (docs/BENCHMARKS.md, fiftieth session).
+#[derive(Clone, Debug)]
+struct CelTerms {
+    off: Vec<u32>,
+    runs: Vec<(CelKind, u32)>,
+    /// RES, FRO and REF links' `g` from the CEL's side: the other end (storage slot), `K`, `Z`
+    springs: Vec<(u32, f64, f64)>,
+    /// BUTs' `g` from the CEL's side: the other end, `K`, `Z`, the threshold `S` (negated where
     /// the CEL is end 2), and whether it is end 2
-    But(u32, f64, f64, f64, bool),
-    /// An LNL's `g` from the CEL's side: the other end, whether the CEL is end 2, and the
-    /// link's pair of curves (in [`Pull::pairs`])
-    Lnl(u32, bool, u32),
-    /// ENF input `i` (its sample is added)
-    Input(u32),
+    buts: Vec<(u32, f64, f64, f64, bool)>,
+    /// LNLs' `g` from the CEL's side: the other end, whether the CEL is end 2, and the link's
+    /// pair of curves (as [`Pull::pair_force`] takes it)
+    lnls: Vec<(u32, bool, u32)>,
+    /// ENF inputs (their samples are added)
+    inputs: Vec<u32>,
+}
+
+/// The kind of a run of [`CelTerms`]: a law, or inputs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum CelKind {
+    Res,
+    Fro,
+    Ref,
+    But,
+    Lnl,
+    Input,
+}
+
+impl CelTerms {
+    /// Appends a term of kind `kind` (already pushed onto its list) to the CEL being built.
+    fn push(&mut self, kind: CelKind) {
+        let first = *self.off.last().expect("`off` starts with 0") as usize;
+        match self.runs[first..].last_mut() {
+            Some((last, count)) if *last == kind => *count += 1,
+            _ => self.runs.push((kind, 1)),
+        }
+    }
+
+    /// Whether the runs take exactly the terms of each list, and every slot and number in them
+    /// is below its bound: `nm` materials, `enf` inputs, and the pairs `known`.
+    fn fits(&self, nm: usize, enf: usize, known: impl Fn(u32) -> bool) -> bool {
+        let taken = |kinds: &[CelKind]| -> usize {
+            let runs = self.runs.iter().filter(|(kind, _)| kinds.contains(kind));
+            runs.map(|&(_, count)| count as usize).sum()
+        };
+        let springs = [CelKind::Res, CelKind::Fro, CelKind::Ref];
+        taken(&springs) == self.springs.len()
+            && taken(&[CelKind::But]) == self.buts.len()
+            && taken(&[CelKind::Lnl]) == self.lnls.len()
+            && taken(&[CelKind::Input]) == self.inputs.len()
+            && self.off.last() == Some(&(self.runs.len() as u32))
+            && self.springs.iter().all(|&(j, ..)| (j as usize) < nm)
+            && self.buts.iter().all(|&(j, ..)| (j as usize) < nm)
+            && (self.lnls.iter()).all(|&(j, _, pair)| (j as usize) < nm && known(pair))
+            && self.inputs.iter().all(|&i| (i as usize) < enf)
+    }
+}
+
+/// The next `count` of `list` from `at`, which moves past them.
+#[inline(always)]
+fn take<'a, T>(list: &'a [T], at: &mut usize, count: u32) -> &'a [T] {
+    let start = *at;
+    *at += count as usize;
+    &list[start..*at]
 }
 
 /// The pull step of a network of RES, FRO, REF links and BUT or LNL ones (see the module
@@ -215,11 +270,10 @@ pub(super) struct Pull {
     /// order they are summed.
     enf_bounds: Vec<u32>,
     enf: Vec<(u8, u32)>,
-    /// Terms of CEL `c` (storage slot `n_mas + c`): `cel_terms[cel_off[c]..cel_off[c + 1]]`.
-    cel_off: Vec<u32>,
-    cel_terms: Vec<CelTerm>,
-    /// The links the outputs read, each a run of its own: computed before each step's outputs.
-    recorded: Vec<Run>,
+    /// The terms of the CELs (storage slots `n_mas..n_mc`).
+    cel: CelTerms,
+    /// The links the outputs read: computed before each step's outputs.
+    recorded: Vec<Recorded>,
 }
 
 impl Pull {
@@ -360,8 +414,14 @@ impl Pull {
             parts: Vec::new(),
             runs: Vec::new(),
             full_rows: false,
-            cel_off: vec![0],
-            cel_terms: Vec::new(),
+            cel: CelTerms {
+                off: vec![0],
+                runs: Vec::new(),
+                springs: Vec::new(),
+                buts: Vec::new(),
+                lnls: Vec::new(),
+                inputs: Vec::new(),
+            },
             recorded: Vec::new(),
         };
         if uniform {
@@ -450,17 +510,34 @@ impl Pull {
             p.enf_bounds.push(p.enf.len() as u32);
         }
         for s in k.n_mas..k.n_mc {
-            p.cel_terms.extend(terms(s).map(|t| match t {
-                Ok((other, l, end1)) if law[l] == Law::But => {
-                    CelTerm::But(other, k.lk[l], k.lz[l], threshold(l, end1), !end1)
-                }
-                Ok((other, l, end1)) if law[l] == Law::Lnl => {
-                    CelTerm::Lnl(other, !end1, lnl_pair(l))
-                }
-                Ok((other, l, _)) => CelTerm::Link(other, law[l], k.lk[l], k.lz[l]),
-                Err(e) => CelTerm::Input(e),
-            }));
-            p.cel_off.push(p.cel_terms.len() as u32);
+            let cel = &mut p.cel;
+            for t in terms(s) {
+                let kind = match t {
+                    Ok((other, l, end1)) if law[l] == Law::But => {
+                        let but = (other, k.lk[l], k.lz[l], threshold(l, end1), !end1);
+                        cel.buts.push(but);
+                        CelKind::But
+                    }
+                    Ok((other, l, end1)) if law[l] == Law::Lnl => {
+                        cel.lnls.push((other, !end1, lnl_pair(l)));
+                        CelKind::Lnl
+                    }
+                    Ok((other, l, _)) => {
+                        cel.springs.push((other, k.lk[l], k.lz[l]));
+                        match law[l] {
+                            Law::Res => CelKind::Res,
+                            Law::Fro => CelKind::Fro,
+                            _ => CelKind::Ref,
+                        }
+                    }
+                    Err(e) => {
+                        cel.inputs.push(e);
+                        CelKind::Input
+                    }
+                };
+                cel.push(kind);
+            }
+            cel.off.push(cel.runs.len() as u32);
         }
         // (each part of a row evaluates its pair on the whole row: two pairs in every row ran at
         // 1.4x the gather step on a random network, docs/BENCHMARKS.md, twenty-eighth session)
@@ -478,16 +555,11 @@ impl Pull {
             p.runs = runs(&p.bounds, &p.row_curves);
         }
         p.recorded = k.recorded_links()?;
-        assert!(p.cel_terms.iter().all(|t| match *t {
-            CelTerm::Link(j, ..) | CelTerm::But(j, ..) => (j as usize) < k.nm,
-            CelTerm::Lnl(j, _, pair) => {
-                let long = |i: u32| (i as usize) < p.longs.len();
-                let known =
-                    (pair as usize) < p.pairs.len() || (pair >= LONGS && long(pair - LONGS));
-                (j as usize) < k.nm && known
-            }
-            CelTerm::Input(i) => (i as usize) < k.enf.len(),
-        }));
+        let long = |i: u32| (i as usize) < p.longs.len();
+        let known =
+            |pair: u32| (pair as usize) < p.pairs.len() || (pair >= LONGS && long(pair - LONGS));
+        assert!(p.cel.fits(k.nm, k.enf.len(), known));
+        assert!(p.cel.off.len() == k.n_mc - k.n_mas + 1);
         assert!(p.enf.iter().all(|&(_, i)| (i as usize) < k.enf.len()));
         Some(p)
     }
@@ -844,42 +916,60 @@ impl Pull {
             pc,
         } = now;
         assert!(next.len() == k.n_mce - k.n_mas && pn.len() == next.len());
+        let t = &self.cel;
+        // (where each list's next terms are: the CELs take them in turn)
+        let [mut springs, mut buts, mut lnls, mut inputs] = [0; 4];
         for (c, cel) in k.cel.iter().enumerate() {
             let s = k.n_mas + c;
             let (x, xp) = (cur[s], prev[s]);
             let v = x - xp;
             let mut f = 0.0;
-            let terms = &self.cel_terms[self.cel_off[c] as usize..self.cel_off[c + 1] as usize];
-            for t in terms {
-                match *t {
-                    CelTerm::Link(j, law, kk, zz) => {
-                        let [xj, vj] = pc[j as usize];
-                        f -= match law {
-                            Law::Res => kk * (x - xj),
-                            Law::Fro => zz * (v - vj),
-                            _ => kk * (x - xj) + zz * (v - vj),
-                        };
-                    }
-                    CelTerm::But(j, kk, zz, s, end2) => {
-                        let [xj, vj] = pc[j as usize];
-                        let t = (x - xj) + s;
-                        let contact = if end2 { t < 0.0 } else { t > 0.0 };
-                        if contact {
-                            f -= kk * t + zz * (v - vj);
+            for &(kind, count) in &t.runs[t.off[c] as usize..t.off[c + 1] as usize] {
+                match kind {
+                    CelKind::Res => {
+                        for &(j, kk, _) in take(&t.springs, &mut springs, count) {
+                            f -= kk * (x - pc[j as usize][0]);
                         }
                     }
-                    CelTerm::Lnl(j, end2, pair) => {
-                        let [xj, vj] = pc[j as usize];
-                        // (the reference's `d` and `v` and force, negated from end 2: see
-                        // `sum_lnl`)
-                        let (d, dv) = (x - xj, v - vj);
-                        f -= if end2 {
-                            -self.pair_force(pair, -d, -dv)
-                        } else {
-                            self.pair_force(pair, d, dv)
-                        };
+                    CelKind::Fro => {
+                        for &(j, _, zz) in take(&t.springs, &mut springs, count) {
+                            f -= zz * (v - pc[j as usize][1]);
+                        }
                     }
-                    CelTerm::Input(i) => f += k.enf[i as usize].at(n),
+                    CelKind::Ref => {
+                        for &(j, kk, zz) in take(&t.springs, &mut springs, count) {
+                            let [xj, vj] = pc[j as usize];
+                            f -= kk * (x - xj) + zz * (v - vj);
+                        }
+                    }
+                    CelKind::But => {
+                        for &(j, kk, zz, s, end2) in take(&t.buts, &mut buts, count) {
+                            let [xj, vj] = pc[j as usize];
+                            let t = (x - xj) + s;
+                            let contact = if end2 { t < 0.0 } else { t > 0.0 };
+                            if contact {
+                                f -= kk * t + zz * (v - vj);
+                            }
+                        }
+                    }
+                    CelKind::Lnl => {
+                        for &(j, end2, pair) in take(&t.lnls, &mut lnls, count) {
+                            let [xj, vj] = pc[j as usize];
+                            // (the reference's `d` and `v` and force, negated from end 2: see
+                            // `sum_lnl`)
+                            let (d, dv) = (x - xj, v - vj);
+                            f -= if end2 {
+                                -self.pair_force(pair, -d, -dv)
+                            } else {
+                                self.pair_force(pair, d, dv)
+                            };
+                        }
+                    }
+                    CelKind::Input => {
+                        for &i in take(&t.inputs, &mut inputs, count) {
+                            f += k.enf[i as usize].at(n);
+                        }
+                    }
                 }
             }
             let xn = cel.next(x, xp, f);
