@@ -1418,7 +1418,8 @@ impl State {
 /// random networks of them ran 2.2x to 3x faster (docs/BENCHMARKS.md, forty-seventh and
 /// forty-eighth sessions, on Emerald Rapids). On Zen 5, since the pull step builds its curves'
 /// vectors with AVX-512 (forty-ninth session), the instrument renders 5 % faster with it and random
-/// networks of 16 to 255 MAS 1.4x to 2.6x; kept until measured again where it was set.
+/// networks of 16 to 255 MAS 1.4x to 2.6x; on Zen 4, since a CEL's terms are summed in runs of one
+/// kind (fiftieth), the instrument 1.15x faster; kept until measured again where it was set.
 const JUMPS_PULL_MIN: usize = 256;
 
 /// Whether an LNL curve of `net` jumps at its first point ([`JUMPS_PULL_MIN`]).
