@@ -75,8 +75,9 @@ impl Law {
     }
 }
 
-/// A link an output reads, for the steps that keep no force buffer (the pull and grid steps,
-/// [`Kernel::record_with`]): its slot, its ends' slots and its law.
+/// A link computed alone ([`Kernel::link_alone`]: one an output reads in the steps that keep no
+/// force buffer, the pull and grid steps, or a grid's fix's): its slot, its ends' slots and its
+/// law.
 #[derive(Clone, Copy, Debug)]
 struct Recorded {
     slot: u32,
@@ -2662,23 +2663,41 @@ impl Kernel {
         }
         recorded.sort_unstable();
         recorded.dedup();
-        let recorded = recorded.into_iter().map(|l| {
-            let run = self.link_run(l)?;
-            Some(Recorded {
-                slot: l as u32,
-                a: self.la[l],
-                b: self.lb[l],
-                law: run.law,
-            })
-        });
-        recorded.collect()
+        recorded.into_iter().map(|l| self.alone(l)).collect()
+    }
+
+    /// Link `l` (a storage slot), to be computed alone ([`Kernel::link_alone`]): `None` if it is
+    /// in no run.
+    fn alone(&self, l: usize) -> Option<Recorded> {
+        Some(Recorded {
+            slot: l as u32,
+            a: self.la[l],
+            b: self.lb[l],
+            law: self.link_run(l)?.law,
+        })
+    }
+
+    /// The force of link `r` from the positions `cur` and `prev`, computed alone, as
+    /// [`Kernel::each`] computes a link read through the index lists (one run of its own each
+    /// through [`Kernel::run_links`] took 13 % of the reconfigurable instrument's pull step for
+    /// the six its outputs read, docs/BENCHMARKS.md, fiftieth session).
+    #[inline]
+    fn link_alone(&self, r: &Recorded, cur: &[f64], prev: &[f64]) -> f64 {
+        let (l, a, b) = (r.slot as usize, r.a as usize, r.b as usize);
+        let (xa, pa, xb, pb) = (cur[a], prev[a], cur[b], prev[b]);
+        let (va, vb) = (xa - pa, xb - pb);
+        let (k, z) = (self.lk[l], self.lz[l]);
+        match r.law {
+            Law::Res => ResLaw::force(k, z, 0.0, xa, va, xb, vb),
+            Law::Fro => FroLaw::force(k, z, 0.0, xa, va, xb, vb),
+            Law::Ref => RefLaw::force(k, z, 0.0, xa, va, xb, vb),
+            Law::But => ButLaw::force(k, z, self.ls[l], xa, va, xb, vb),
+            Law::Lnl => self.lnl[self.lnl_of[l] as usize].force(xa - xb, va - vb),
+        }
     }
 
     /// The outputs of a step of the pull or grid step: the forces of the `recorded` links (see
-    /// [`Kernel::recorded_links`]) into `sf`, then `frame`. Each link is computed alone, as
-    /// [`Kernel::each`] computes a link read through the index lists (one run of its own each
-    /// through [`Kernel::run_links`] took 13 % of the reconfigurable instrument's pull step for
-    /// its six, docs/BENCHMARKS.md, fiftieth session).
+    /// [`Kernel::recorded_links`]) into `sf`, each computed alone, then `frame`.
     #[inline]
     fn record_with(
         &self,
@@ -2689,17 +2708,7 @@ impl Kernel {
         frame: &mut [f64],
     ) {
         for r in recorded {
-            let (l, a, b) = (r.slot as usize, r.a as usize, r.b as usize);
-            let (xa, pa, xb, pb) = (cur[a], prev[a], cur[b], prev[b]);
-            let (va, vb) = (xa - pa, xb - pb);
-            let (k, z) = (self.lk[l], self.lz[l]);
-            sf[l] = match r.law {
-                Law::Res => ResLaw::force(k, z, 0.0, xa, va, xb, vb),
-                Law::Fro => FroLaw::force(k, z, 0.0, xa, va, xb, vb),
-                Law::Ref => RefLaw::force(k, z, 0.0, xa, va, xb, vb),
-                Law::But => ButLaw::force(k, z, self.ls[l], xa, va, xb, vb),
-                Law::Lnl => self.lnl[self.lnl_of[l] as usize].force(xa - xb, va - vb),
-            };
+            sf[r.slot as usize] = self.link_alone(r, cur, prev);
         }
         self.record(cur, &sf[..self.nl], frame);
     }

@@ -457,8 +457,6 @@ struct Sheet {
     /// recomputed after their rows from `terms`.
     fixes: Vec<Fix>,
     terms: Vec<FixTerm>,
-    /// The single-link runs of the fixes' link terms.
-    fix_runs: Vec<Run>,
 }
 
 /// What one call steps ([`Grid::parts`]): rows `rows` of sheet `sheets.start` alone, or (a
@@ -479,8 +477,8 @@ struct Fix {
 /// A term of a [`Fix`], in the MAS's order.
 #[derive(Clone, Copy, Debug)]
 enum FixTerm {
-    /// The force of the link of `Sheet::fix_runs[run]`, negated where the MAS is its end 1
-    Link { run: u32, neg: bool },
+    /// The force of `link` (computed alone), negated where the MAS is its end 1
+    Link { link: Recorded, neg: bool },
     /// The sample of ENF input `i`
     Input(u32),
 }
@@ -906,7 +904,6 @@ impl Sheet {
             last: vec![Order::CANONICAL; rows],
             fixes: Vec::new(),
             terms: Vec::new(),
-            fix_runs: Vec::new(),
         })
     }
 
@@ -1125,9 +1122,8 @@ impl Sheet {
         for &e in edges {
             let l = (e & !NEG) as usize;
             self.terms.push(if l < k.nl {
-                self.fix_runs.push(k.link_run(l)?);
                 FixTerm::Link {
-                    run: self.fix_runs.len() as u32 - 1,
+                    link: k.alone(l)?,
                     neg: e & NEG != 0,
                 }
             } else {
@@ -1307,7 +1303,6 @@ impl Sheet {
         let lo = self
             .fixes
             .partition_point(|f| (f.slot as usize) < slots.start);
-        let state = Positions::new(k, cur, prev);
         for fix in &self.fixes[lo..] {
             let s = fix.slot as usize;
             if s >= slots.end {
@@ -1317,13 +1312,12 @@ impl Sheet {
             for t in &self.terms[fix.terms.start as usize..fix.terms.end as usize] {
                 match *t {
                     FixTerm::Input(i) => f += k.enf[i as usize].at(n),
-                    FixTerm::Link { run, neg } => {
-                        let mut lf = [0.0];
-                        k.run_links(&self.fix_runs[run as usize], &state, &mut lf);
+                    FixTerm::Link { link, neg } => {
+                        let lf = k.link_alone(&link, cur, prev);
                         if neg {
-                            f -= lf[0];
+                            f -= lf;
                         } else {
-                            f += lf[0];
+                            f += lf;
                         }
                     }
                 }
