@@ -630,29 +630,6 @@ impl Pull {
         }
     }
 
-    /// The number of the pair of LNL lane `i` of row `r` (as [`Pull::pair_force`] takes it).
-    #[cfg(target_arch = "x86_64")]
-    fn lane_pair(&self, r: usize, i: usize) -> u32 {
-        if !self.several {
-            return if self.pairs.is_empty() { LONGS } else { 0 };
-        }
-        let at = match self.row_curves[r] {
-            at if at & PARTS == 0 => at,
-            at => {
-                let parts = &self.parts[(at & !PARTS) as usize..];
-                let part = parts.iter().find(|&&(_, lanes)| lanes & (1 << i) != 0);
-                part.expect("an LNL lane is in a part of its row").0
-            }
-        };
-        // (a table position: pair `j` is at `j` times the numbers of a pair, `exact_len` of
-        // `a` and of `b`, the table's point counts)
-        match (at, self.curves.map(|c| c.counts())) {
-            (LONGS.., _) => at,
-            (_, Some((a, b))) => at / (exact_len(a) + exact_len(b)) as u32,
-            (_, None) => unreachable!("a network of several pairs has the table's shape"),
-        }
-    }
-
     /// Whether every row computes the terms only some rows may have ([`Pull::full_rows`]).
     #[cfg(test)]
     pub(super) fn has_full_rows(&self) -> bool {

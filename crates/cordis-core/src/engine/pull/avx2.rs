@@ -21,7 +21,11 @@
 //! is not finite either: both steps reach a non-finite position at the same step, where the
 //! engine replays the block with the reference's step to report it (`Engine::check_block`).
 //!
-//! The last group, which may be partial, is computed one lane at a time, with the masks.
+//! The last group, which may be partial, is computed as a whole one, on copies of its lanes padded
+//! with zeros, and only its lanes are stored (`Pull::groups_avx2_as`): its padding lanes' terms
+//! read pair 0 and have no BUT or LNL mask bit, and whatever they compute is dropped. Computed lane
+//! by lane until the fifty-first session, it took a quarter of the time of the reconfigurable
+//! instrument (60 MAS: seven whole groups and one of four lanes).
 
 use std::arch::x86_64::*;
 use std::hint::black_box;
@@ -31,7 +35,7 @@ use super::{
     read_pair, AnyPair, Group, MasLaw, Now, Params, Pull, Row, Slots, LANES, LONGS, NO_LNL, PARTS,
 };
 use crate::curve::{ExactCurve, WideCurve, WideLong};
-use crate::engine::{by_div, by_inv, PairFn};
+use crate::engine::PairFn;
 use crate::wide::{Vector, V4};
 
 /// Lanes of an AVX2 vector of `f64`.
@@ -45,8 +49,8 @@ const MASKED: bool = true;
 type Group4<P> = Group<P, [__m256d; 2]>;
 
 impl Pull {
-    /// The MAS, group by group: the whole groups compiled for the kernel's inertias, the last
-    /// one, if it is partial, lane by lane.
+    /// The MAS, group by group, the loop compiled for the kernel's inertias, and for whole groups
+    /// apart from the last, the only one that may be partial.
     #[target_feature(enable = "avx2")]
     #[inline]
     pub(super) fn groups_avx2<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>>(
@@ -94,36 +98,37 @@ impl Pull {
         params: &impl Fn(Range<usize>) -> I,
         out: Slots,
     ) {
+        // (`groups_avx2_as` checks each piece against its buffers)
         let [whole, part] = out.split_whole(now.k);
         let none: &[f64] = &[];
-        macro_rules! whole {
-            ($div:literal, $per:literal, $m:expr, $ms:expr) => {
-                self.whole_avx2::<_, _, $div, $per>(terms, now, params, $m, $ms, whole)
-            };
+        macro_rules! both {
+            ($div:literal, $per:literal, $m:expr, $ms:expr) => {{
+                self.groups_avx2_as::<_, _, $div, $per, true>(terms, now, params, $m, $ms, whole);
+                self.groups_avx2_as::<_, _, $div, $per, false>(terms, now, params, $m, $ms, part);
+            }};
         }
         match &now.k.mas {
-            MasLaw::UniformInv(inv) => whole!(false, false, inv, none),
-            MasLaw::UniformDiv(m) => whole!(true, false, m, none),
-            MasLaw::Inv(inv) => whole!(false, true, &0.0, inv),
-            MasLaw::Div(m) => whole!(true, true, &0.0, m),
-        }
-        if !part.groups.is_empty() {
-            assert!(part.groups.len() == 1);
-            self.part(now, params, part);
+            MasLaw::UniformInv(inv) => both!(false, false, inv, none),
+            MasLaw::UniformDiv(m) => both!(true, false, m, none),
+            MasLaw::Inv(inv) => both!(false, true, &0.0, inv),
+            MasLaw::Div(m) => both!(true, true, &0.0, m),
         }
     }
 
-    /// [`Pull::groups_avx2`] for the whole groups of `out`: `x(n+1) = 2 x(n) - x(n-1) + F(n) / M`,
-    /// dividing (`DIV`) or multiplying by `1 / M`, `m` for every MAS or (`PER_MAS`) each MAS's
-    /// own in `ms` (by storage slot).
+    /// [`Pull::groups_avx2`] for the groups of `out`, all whole (`WHOLE`) or the last, partial,
+    /// one: `x(n+1) = 2 x(n) - x(n-1) + F(n) / M`, dividing (`DIV`) or multiplying by `1 / M`, `m`
+    /// for every MAS or (`PER_MAS`) each MAS's own in `ms` (by storage slot). A partial group is
+    /// computed as a whole one on copies of its lanes padded with zeros (its padding lanes' terms
+    /// read pair 0, `Pull::new`; what they compute is not stored), and only its lanes are stored.
     #[target_feature(enable = "avx2")]
     #[inline]
-    fn whole_avx2<
+    fn groups_avx2_as<
         'p,
         I: Iterator<Item = &'p [[f64; LANES]; 2]>,
         T: Terms4,
         const DIV: bool,
         const PER_MAS: bool,
+        const WHOLE: bool,
     >(
         &self,
         terms: &T,
@@ -145,21 +150,39 @@ impl Pull {
             next,
             pn,
         } = out;
-        // `next` and `pn` are the slots of the MAS of groups `gr`, from `o`, every group whole
+        // `next` and `pn` are the slots of the MAS of groups `gr`, from `o`: every group whole,
+        // or one partial group
         let o = LANES * gr.start;
-        assert!((gr.is_empty() || LANES * gr.end <= k.n_mas) && gr.end < self.bounds.len());
-        assert!(next.len() == LANES * gr.len() && pn.len() == next.len());
-        assert!(!PER_MAS || ms.len() == k.n_mas);
+        assert!(gr.end < self.bounds.len() && (WHOLE || gr.len() <= 1));
+        assert!(!WHOLE || gr.is_empty() || LANES * gr.end <= k.n_mas);
+        assert!(next.len() == (LANES * gr.end).min(k.n_mas) - o.min(k.n_mas));
+        assert!(pn.len() == next.len() && (!PER_MAS || ms.len() == k.n_mas));
         let base = pc.as_ptr().cast::<u8>();
         let two = _mm256_set1_pd(2.0);
         let groups = (self.bounds[gr.start..=gr.end].windows(2))
             .zip(self.enf_bounds[gr.start..=gr.end].windows(2));
         for (g, (rows, inputs)) in (gr.start..).zip(groups) {
             let s0 = LANES * g;
-            // SAFETY: slots `s0..s0 + 8` are MAS (`s0 + 8 <= n_mas`, asserted above), within
-            // `cur` and `prev`, of `nm >= n_mas` items (asserted in `step`).
+            // (a partial group's `x(n)`, `x(n-1)` and inertias, padded: `[x, xp, m]`)
+            let mut padded = [[0.0; LANES]; 3];
+            let lanes = if WHOLE { LANES } else { k.n_mas - s0 };
+            if !WHOLE {
+                assert!(lanes < LANES && next.len() == lanes);
+                padded[0][..lanes].copy_from_slice(&cur[s0..s0 + lanes]);
+                padded[1][..lanes].copy_from_slice(&prev[s0..s0 + lanes]);
+                if PER_MAS {
+                    padded[2][..lanes].copy_from_slice(&ms[s0..s0 + lanes]);
+                }
+            }
+            // SAFETY: slots `s0..s0 + 8` of a whole group are MAS (`s0 + 8 <= n_mas`, asserted
+            // above), within `cur` and `prev`, of `nm >= n_mas` items (asserted in `step`); a
+            // partial group's are eight `f64` of `padded`.
             let (x, xp) = unsafe {
-                let (c, p) = (cur.as_ptr().add(s0), prev.as_ptr().add(s0));
+                let (c, p) = if WHOLE {
+                    (cur.as_ptr().add(s0), prev.as_ptr().add(s0))
+                } else {
+                    (padded[0].as_ptr(), padded[1].as_ptr())
+                };
                 (
                     [_mm256_loadu_pd(c), _mm256_loadu_pd(c.add(HALF))],
                     [_mm256_loadu_pd(p), _mm256_loadu_pd(p.add(HALF))],
@@ -191,13 +214,19 @@ impl Pull {
                     ]
                 };
             }
+            // (a partial group's `x(n+1)` and `v(n+1)`, all eight lanes, before its lanes are
+            // stored)
+            let mut done = [[0.0; LANES]; 2];
             for h in 0..2 {
                 let s = s0 + HALF * h;
                 // 2 x(n) - x(n-1) + F(n) / M, as `by_inv` and `by_div` (a uniform inertia is
                 // broadcast here, through `black_box`, so that it is not kept across the loop)
-                let m = if PER_MAS {
+                let m = if PER_MAS && WHOLE {
                     // SAFETY: slots `s..s + 4` are MAS, within the `n_mas` inertias.
                     unsafe { _mm256_loadu_pd(ms.as_ptr().add(s)) }
+                } else if PER_MAS {
+                    // SAFETY: four of the eight `f64` of `padded[2]`.
+                    unsafe { _mm256_loadu_pd(padded[2].as_ptr().add(HALF * h)) }
                 } else {
                     _mm256_set1_pd(*black_box(m))
                 };
@@ -208,6 +237,14 @@ impl Pull {
                 };
                 let xn = _mm256_add_pd(_mm256_sub_pd(_mm256_mul_pd(two, x[h]), xp[h]), acc);
                 let vn = _mm256_sub_pd(xn, x[h]);
+                if !WHOLE {
+                    // SAFETY: four of the eight `f64` of each of `done`.
+                    unsafe {
+                        _mm256_storeu_pd(done[0].as_mut_ptr().add(HALF * h), xn);
+                        _mm256_storeu_pd(done[1].as_mut_ptr().add(HALF * h), vn);
+                    }
+                    continue;
+                }
                 // (`[x0 v0 | x2 v2]` and `[x1 v1 | x3 v3]`, then the pairs in order)
                 let (a, b) = (_mm256_unpacklo_pd(xn, vn), _mm256_unpackhi_pd(xn, vn));
                 // SAFETY: slots `s..s + 4` are items `s - o..` of `next` and of `pn` (the
@@ -219,73 +256,13 @@ impl Pull {
                     _mm256_storeu_pd(p.add(HALF), _mm256_permute2f128_pd::<0x31>(a, b));
                 }
             }
-        }
-    }
-
-    /// The partial group of `out` (the last), lane by lane: the REF, BUT and LNL terms of the
-    /// lane's rows (those its mask bits name; the others are padding, skipped), then its ENF
-    /// inputs, with the reference's expressions (a BUT or LNL term from end 2's side as the
-    /// AVX-512 step's `sum_but` and `sum_lnl` compute it).
-    fn part<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>>(
-        &self,
-        now: Now,
-        params: &impl Fn(Range<usize>) -> I,
-        out: Slots,
-    ) {
-        let (k, pc) = (now.k, now.pc);
-        let Slots { groups, next, pn } = out;
-        let g = groups.start;
-        let s0 = LANES * g;
-        let lanes = k.n_mas - s0;
-        assert!(lanes < LANES && next.len() == lanes && pn.len() == lanes);
-        let rows = self.bounds[g] as usize..self.bounds[g + 1] as usize;
-        let inputs = &self.enf[self.enf_bounds[g] as usize..self.enf_bounds[g + 1] as usize];
-        for i in 0..lanes {
-            let s = s0 + i;
-            let (x, xp) = (now.cur[s], now.prev[s]);
-            let v = x - xp;
-            let mut f = 0.0;
-            for (r, [kr, zr]) in rows.clone().zip(params(rows.clone())) {
-                let row = &self.rows[r];
-                let [xj, vj] = pc[row.at[i] as usize / 16];
-                let end2 = row.flip & (1 << i) != 0;
-                let (b, spring) = (row.b & (1 << i) != 0, row.k & (1 << i) != 0);
-                if b && !spring {
-                    // (an LNL: a BUT lane has a spring, an LNL lane none)
-                    let pair = self.lane_pair(r, i);
-                    let (d, dv) = (x - xj, v - vj);
-                    f -= if end2 {
-                        -self.pair_force(pair, -d, -dv)
-                    } else {
-                        self.pair_force(pair, d, dv)
-                    };
-                } else if b {
-                    // (a BUT, as the CEL's: `t` and the contact test from the lane's side)
-                    let t = (x - xj) + self.thresholds[r][i];
-                    if if end2 { t < 0.0 } else { t > 0.0 } {
-                        f -= kr[i] * t + zr[i] * (v - vj);
-                    }
-                } else {
-                    // (a RES, FRO or REF, as the CEL's; neither product: padding)
-                    f -= match (row.k & (1 << i) != 0, row.z & (1 << i) != 0) {
-                        (true, true) => kr[i] * (x - xj) + zr[i] * (v - vj),
-                        (true, false) => kr[i] * (x - xj),
-                        (false, true) => zr[i] * (v - vj),
-                        (false, false) => continue,
-                    };
+            if !WHOLE {
+                let [xn, vn] = &done;
+                next.copy_from_slice(&xn[..lanes]);
+                for ((p, &xn), &vn) in pn.iter_mut().zip(xn).zip(vn) {
+                    *p = [xn, vn];
                 }
             }
-            for &(_, e) in inputs.iter().filter(|&&(l, _)| l as usize == i) {
-                f += k.enf[e as usize].at(now.n);
-            }
-            let xn = match &k.mas {
-                MasLaw::UniformInv(inv) => by_inv(x, xp, f, *inv),
-                MasLaw::UniformDiv(m) => by_div(x, xp, f, *m),
-                MasLaw::Inv(inv) => by_inv(x, xp, f, inv[s]),
-                MasLaw::Div(m) => by_div(x, xp, f, m[s]),
-            };
-            next[i] = xn;
-            pn[i] = [xn, xn - x];
         }
     }
 }
