@@ -5059,8 +5059,8 @@ mod tests {
     /// among RES, FRO and REF links too (their springs and dampers masked). So do networks of
     /// BUTs and LNLs of one pair, among REF links or among RES, FRO and REF links; and of several
     /// pairs, short and long, by row or mixed in some rows, with a BUT among them
-    /// (`avx2::CurveTable4`, a long pair's runs by `avx2::Long4`). Long pairs alone keep the
-    /// other steps (the gather step is faster).
+    /// (`avx2::CurveTable4`, a long pair's runs by `avx2::Long4`); and of long pairs alone, one
+    /// (`avx2::Long4`) or several (an empty table).
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_avx2_pull_step_takes_but_and_lnl_networks() {
@@ -5141,7 +5141,7 @@ mod tests {
         }
         assert_eq!(seen_full, [true, true]);
         // (BUTs among LNLs of one pair: every fifth link that is not an LNL a BUT, or one BUT;
-        // refused, a pair of more than 16 points alone, with BUTs or not)
+        // and a pair of more than 16 points, `avx2::Long4`, with BUTs or not)
         seen_full = [false; 2];
         for (pair, long) in [(&four, false), (&sampled_pair(), true)] {
             for (seed, n, inertia, every) in
@@ -5162,11 +5162,10 @@ mod tests {
                 }
                 let what = format!("{what}, with BUTs");
                 if long {
-                    for net in [&net, &but] {
-                        assert!(Engine::new_for(net, Simd::Avx2).k.pull.is_none(), "{what}");
-                        assert!(Avx512::detect().is_none() || Engine::new(net).k.pull.is_some());
-                    }
-                    continue;
+                    the_avx2_pull_step_gives_the_scalar_bits(&net, &format!("{what}, without"));
+                    toggled_gives_the_scalar_bits(&net, &what);
+                    let pull = Engine::new_for(&net, Simd::Avx2).k.pull.unwrap();
+                    assert_eq!((pull.curve_pairs(), pull.long_pairs()), (0, 1), "{what}");
                 }
                 the_avx2_pull_step_gives_the_scalar_bits(&but, &what);
                 seen_full[usize::from(toggled_gives_the_scalar_bits(&but, &what))] = true;
@@ -5206,14 +5205,14 @@ mod tests {
             the_avx2_pull_step_gives_the_scalar_bits(&net, &what);
             toggled_gives_the_scalar_bits(&net, &what);
         }
-        // (refused: long pairs alone, `lnl_springs`'s mixes 8 and 12)
+        // (long pairs alone, `lnl_springs`'s mixes 8 and 12)
         for mix in [8, 12] {
+            let what = format!("long pairs alone, mix {mix}");
             let net = lnl_springs(48, 500, mix);
-            assert!(
-                Engine::new_for(&net, Simd::Avx2).k.pull.is_none(),
-                "mix {mix}"
-            );
-            assert!(Avx512::detect().is_none() || Engine::new(&net).k.pull.is_some());
+            the_avx2_pull_step_gives_the_scalar_bits(&net, &what);
+            toggled_gives_the_scalar_bits(&net, &what);
+            let pull = Engine::new_for(&net, Simd::Avx2).k.pull.unwrap();
+            assert_eq!(pull.curve_pairs(), 0, "{what}");
         }
     }
 

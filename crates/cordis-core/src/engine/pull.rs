@@ -351,11 +351,6 @@ impl Pull {
         let (a, b) = ExactPair::shape(a, b)?;
         let mut table = Vec::new();
         let several = pairs.len() + longs.len() > 1;
-        if isa == Isa::Avx2 && pairs.is_empty() && !longs.is_empty() {
-            // (four lanes at a time, a long pair alone ran at 0.93x the gather step: `WideLong`
-            // with `V4` searches its segments with selects; among other pairs it gains)
-            return None;
-        }
         let curves = match &pairs[..] {
             [] if !several => None,
             // (every pair long: the loop's shape is the zero pair's, and the table is empty)

@@ -66,9 +66,18 @@ impl Pull {
                 params,
                 out,
             }),
+            // (no `curves`, so one pair: several have the table's shape, `Pull::new`)
+            None if !self.longs.is_empty() => {
+                // SAFETY: this function is compiled with AVX2.
+                let c = unsafe { Long4::new(&self.longs[0]) };
+                let curves = Curves4 {
+                    c,
+                    full_rows: self.full_rows,
+                    masked: self.masked,
+                };
+                self.groups_avx2_with(&curves, now, params, out)
+            }
             None => {
-                // (a long pair alone keeps the gather step on AVX2: `Pull::new`)
-                assert!(self.longs.is_empty());
                 macro_rules! with {
                     ($terms:expr) => {
                         self.groups_avx2_with(&$terms, now, params, out)
