@@ -259,8 +259,8 @@ impl Vector for V4 {
     /// (an index costs four integer operations before each `vpermd`, two `vpermd` and a blend
     /// for two vectors: no fewer than the selects)
     const LOOKUP: usize = 0;
-    /// (a 33-point curve's 32 numbers by four `vgatherqpd` each ran 1.5x faster on Zen 3 than
-    /// looked up, a 17-point one's 16 as fast: fifty-third session)
+    /// (a 33-point curve's table of 32 numbers, one `vgatherqpd` a fetch, ran 1.5x faster on
+    /// Zen 3 than looked up; a 17-point one's 16 as fast: fifty-third session)
     const LOOK_MAX: usize = 16;
     type Mask = __m256d;
     type Index = __m256i;
