@@ -397,8 +397,9 @@ impl<const A: usize, const B: usize> Forces4 for Pair4<A, B> {
     }
 }
 
-/// A pair of more than 16 points (one of `Pull::longs`, among other pairs: in its runs of
-/// groups, or by [`long_forces4`]), as the AVX-512 step's `LongCurves` evaluates it.
+/// A pair of more than 16 points (one of `Pull::longs`: the network's pair when it is the only
+/// one; among others, in its runs of groups, or by [`long_forces4`]), as the AVX-512 step's
+/// `LongCurves` evaluates it.
 #[derive(Clone, Copy)]
 struct Long4<'a> {
     k: WideLong<'a, V4>,
