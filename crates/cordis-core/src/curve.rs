@@ -436,6 +436,8 @@ pub(crate) struct LongCurve {
     table: Box<[f64]>,
     /// The grid's buckets a unit of `x` where the guess gives the search's segment ([`Grid`]).
     scale: Option<f64>,
+    /// Where the curve has a grid, the guess's numbers by bucket ([`Row`]); else empty.
+    rows: Box<[Row]>,
     /// The last point, `(x[n-1], y[n-1])` (`P` may be `n - 1`, the table without it).
     last: (f64, f64),
     /// [`LongCurve::widens`], decided from the curve's own points (a 2-point curve's table has
@@ -451,6 +453,7 @@ impl LongCurve {
         let segs = n.saturating_sub(1).max(1).next_power_of_two();
         let mut table = vec![0.0; 5 * segs];
         let mut scale = None;
+        let mut rows = Vec::new();
         if n > 0 {
             for i in 0..segs {
                 let j = i.min(n - 1);
@@ -471,6 +474,9 @@ impl LongCurve {
                     table[3 * segs + b] = f64::from_bits(grid.segment(edge) as u64);
                 }
                 scale = Some(grid.scale);
+                rows = (grid.edges.iter())
+                    .map(|&edge| Row::new(&table, segs, grid.segment(edge)))
+                    .collect();
             }
         }
         let widens = n < 2
@@ -482,6 +488,7 @@ impl LongCurve {
             segs,
             table: table.into(),
             scale,
+            rows: rows.into(),
             last: n.checked_sub(1).map_or((0.0, 0.0), |l| (xs[l], ys[l])),
             widens,
         }
@@ -518,6 +525,7 @@ impl LongCurve {
     fn searched(&self) -> LongCurve {
         LongCurve {
             scale: None,
+            rows: Box::new([]),
             ..self.clone()
         }
     }
@@ -562,6 +570,7 @@ impl LongCurve {
             n: self.n,
             segs: s,
             table: t,
+            rows: &self.rows,
             lookup,
             x0: V::splat(t[0]),
             mid: V::splat(t[s / 2]),
@@ -571,6 +580,29 @@ impl LongCurve {
             scale: V::splat(self.scale.unwrap_or(0.0)),
             top: V::splat((s - 1) as f64),
         }
+    }
+}
+
+/// A bucket's numbers for [`WideLong::eval`]'s guess ([`Grid`]), read in one place (a cache
+/// line): the segment `s` of the bucket's edge, its abscissa, value and slope, the next abscissa
+/// (`next[s]`, NaN past the table), and the value and slope of segment `s + 1` (`0.0` past the
+/// table, where `next[s]` is NaN), then two zeros.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Row([f64; 8]);
+
+impl Row {
+    /// Segment `s`'s row, from a [`LongCurve`]'s table of `P = segs` segments.
+    fn new(table: &[f64], segs: usize, s: usize) -> Row {
+        let after = |k: usize| {
+            if s + 1 < segs {
+                table[k * segs + s + 1]
+            } else {
+                0.0
+            }
+        };
+        let at = |k: usize| table[k * segs + s];
+        Row([at(0), at(1), at(2), at(4), after(1), after(2), 0.0, 0.0])
     }
 }
 
@@ -679,6 +711,8 @@ pub(crate) struct WideLong<'a, V: Vector> {
     n: usize,
     segs: usize,
     table: &'a [f64],
+    /// [`LongCurve::rows`].
+    rows: &'a [Row],
     /// With `P <= 2 V::N` the table's abscissas, values and slopes, two vectors each; else the
     /// `2 V::N` abscissas `x[j P / (2 V::N)]` (the *coarse* ones).
     lookup: [[V; 2]; 3],
@@ -717,7 +751,10 @@ impl<V: Vector> WideLong<'_, V> {
     /// search's wherever `x < x[n-1]`, and an index below `P` elsewhere: the same bits. The
     /// bucket is computed from the raised `x` (never NaN; at `+inf` the product is `+inf` and
     /// the `min` gives `P - 1`) by the operations of `Grid::bucket`: a number from `+0.0` or
-    /// `-0.0` (`x = x[0]`) to `P - 1`, truncated.
+    /// `-0.0` (`x = x[0]`) to `P - 1`, truncated. Where [`Vector::ROWS`] (AVX2), the bucket's
+    /// [`Row`] gives the numbers of both segments the guess may take, `s` and `s + 1`, and the
+    /// next abscissa, read at once, and the compare selects one: the numbers the fetches
+    /// give, without the wait for the segment before the fetches.
     ///
     /// # Safety
     /// The CPU must have `V`'s instructions (see [`Vector`]).
@@ -731,7 +768,18 @@ impl<V: Vector> WideLong<'_, V> {
         let c = 2 * V::N;
         let [_, ys, slopes] = self.lookup;
         let xs = self.lookup[0];
-        let (x0, y, slope) = if self.guess {
+        let (x0, y, slope) = if self.guess && V::ROWS {
+            let b = x.sub(self.x0).mul(self.scale).min(self.top).truncated();
+            assert!(self.rows.len() == s);
+            // SAFETY: each bucket is below `P`, a row of the `P` (asserted).
+            let [x0, y, slope, next, y1, slope1] = V::rows(self.rows.as_ptr().cast(), b);
+            let up = next.le(x);
+            (
+                x0.select(up, next),
+                y.select(up, y1),
+                slope.select(up, slope1),
+            )
+        } else if self.guess {
             let b = x.sub(self.x0).mul(self.scale).min(self.top).truncated();
             let first = self.fetch(3, b).index_bits();
             let i = V::moved(first, self.fetch(4, first).le(x), V::plus(first, 1));

@@ -93,6 +93,11 @@ pub(crate) trait Vector: Copy {
     unsafe fn index_bits(self) -> Self::Index;
     /// `*p.add(i[j])` in each lane `j` (a gather; each `p.add(i[j])` valid for reads).
     unsafe fn gather(p: *const f64, i: Self::Index) -> Self;
+    /// Whether `WideLong::eval` guesses from rows ([`Vector::rows`]) rather than gathers.
+    const ROWS: bool;
+    /// `[r[0], .., r[5]]` where lane `j` of `r[k]` is `*p.add(8 i[j] + k)`: six numbers of a row
+    /// of eight for each lane (each of them valid for reads).
+    unsafe fn rows(p: *const f64, i: Self::Index) -> [Self; 6];
 }
 
 /// Eight lanes: AVX-512F.
@@ -243,6 +248,30 @@ impl Vector for V8 {
     unsafe fn gather(p: *const f64, i: __m512i) -> Self {
         V8(_mm512_i64gather_pd::<8>(i, p))
     }
+    /// (not measured against gathers: no AVX-512 machine since the rows were written)
+    const ROWS: bool = false;
+    /// Six gathers.
+    #[inline(always)]
+    unsafe fn rows(p: *const f64, i: __m512i) -> [Self; 6] {
+        let at = Self::times(i, 3);
+        let mut r = [Self::zero(); 6];
+        for (k, r) in r.iter_mut().enumerate() {
+            *r = Self::gather(p.add(k), at);
+        }
+        r
+    }
+}
+
+/// `[x[k] x[k+1] y[k] y[k+1]]` (a function, not a closure, so that it has the caller's target
+/// features).
+///
+/// # Safety
+/// The CPU has AVX2 (see [`Vector`]), and the four numbers are valid for reads.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn halves(x: *const f64, y: *const f64, k: usize) -> __m256d {
+    let low = _mm256_castpd128_pd256(_mm_loadu_pd(x.add(k)));
+    _mm256_insertf128_pd::<1>(low, _mm_loadu_pd(y.add(k)))
 }
 
 /// The lanes `0..n` of four as an AVX2 mask (all ones in a lane that is set).
@@ -408,6 +437,24 @@ impl Vector for V4 {
     #[inline(always)]
     unsafe fn gather(p: *const f64, i: __m256i) -> Self {
         V4(_mm256_i64gather_pd::<8>(p, i))
+    }
+    const ROWS: bool = true;
+    /// The lanes' rows `a`, `b`, `c`, `d` read in halves of two numbers: `[a0 a1 c0 c1]` and
+    /// `[b0 b1 d0 d1]` (a load and a `vinsertf128` each), `vunpcklpd` of them `[a0 b0 c0 d0]`,
+    /// `vunpckhpd` `[a1 b1 c1 d1]`; the same for numbers 2 and 3, 4 and 5. Twelve loads and six
+    /// shuffles, where gathers are six `vgatherqpd`.
+    #[inline(always)]
+    unsafe fn rows(p: *const f64, i: __m256i) -> [Self; 6] {
+        let mut at = [0i64; 4];
+        _mm256_storeu_si256(at.as_mut_ptr().cast(), i);
+        let [a, b, c, d] = at.map(|j| p.offset(8 * j as isize));
+        let mut r = [Self::zero(); 6];
+        for k in [0, 2, 4] {
+            let (ac, bd) = (halves(a, c, k), halves(b, d, k));
+            r[k] = V4(_mm256_unpacklo_pd(ac, bd));
+            r[k + 1] = V4(_mm256_unpackhi_pd(ac, bd));
+        }
+        r
     }
 }
 
@@ -580,6 +627,13 @@ mod tests {
             let want: Vec<f64> = at.iter().map(|&c| long[c]).collect();
             let got = lanes(V::gather(long.as_ptr(), scaled));
             assert_eq!(bits(&got), bits(&want), "{at:?}");
+            // (and rows of eight from them: `8 * 30 + 5` within the table's `64 n`)
+            if shift < 2 {
+                for (k, got) in V::rows(long.as_ptr(), scaled).into_iter().enumerate() {
+                    let want: Vec<f64> = at.iter().map(|&c| long[8 * c + k]).collect();
+                    assert_eq!(bits(&lanes(got)), bits(&want), "{at:?} {k}");
+                }
+            }
             let want: Vec<f64> = at.iter().map(|&c| table[c % (2 * n)]).collect();
             let got = lanes(lo.pick2(hi, V::low(scaled)));
             assert_eq!(bits(&got), bits(&want), "{at:?}");
