@@ -768,22 +768,23 @@ impl<V: Vector> WideLong<'_, V> {
         let c = 2 * V::N;
         let [_, ys, slopes] = self.lookup;
         let xs = self.lookup[0];
-        let (x0, y, slope) = if self.guess && V::ROWS {
+        let (x0, y, slope) = if self.guess {
             let b = x.sub(self.x0).mul(self.scale).min(self.top).truncated();
-            assert!(self.rows.len() == s);
-            // SAFETY: each bucket is below `P`, a row of the `P` (asserted).
-            let [x0, y, slope, next, y1, slope1] = V::rows(self.rows.as_ptr().cast(), b);
-            let up = next.le(x);
-            (
-                x0.select(up, next),
-                y.select(up, y1),
-                slope.select(up, slope1),
-            )
-        } else if self.guess {
-            let b = x.sub(self.x0).mul(self.scale).min(self.top).truncated();
-            let first = self.fetch(3, b).index_bits();
-            let i = V::moved(first, self.fetch(4, first).le(x), V::plus(first, 1));
-            (self.fetch(0, i), self.fetch(1, i), self.fetch(2, i))
+            if V::ROWS {
+                assert!(self.rows.len() == s);
+                // SAFETY: each bucket is below `P`, a row of the `P` (asserted).
+                let [x0, y, slope, next, y1, slope1] = V::rows(self.rows.as_ptr().cast(), b);
+                let up = next.le(x);
+                (
+                    x0.select(up, next),
+                    y.select(up, y1),
+                    slope.select(up, slope1),
+                )
+            } else {
+                let first = self.fetch(3, b).index_bits();
+                let i = V::moved(first, self.fetch(4, first).le(x), V::plus(first, 1));
+                (self.fetch(0, i), self.fetch(1, i), self.fetch(2, i))
+            }
         } else if s <= c {
             let i = self.search(x, s / 2);
             (
