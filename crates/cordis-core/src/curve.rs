@@ -513,10 +513,11 @@ impl LongCurve {
 
     /// Whether [`WideLong::eval`] guesses each lane's segment ([`Grid`]): where the grid is
     /// exact and the table is of `2 V::N` numbers or more (smaller ones are searched in
-    /// registers).
+    /// registers), and of fewer than `2^25` segments (each bucket a number [`Vector::rows`]
+    /// takes).
     #[cfg(target_arch = "x86_64")]
     fn guesses<V: Vector>(&self) -> bool {
-        self.scale.is_some() && self.segs >= 2 * V::N
+        self.scale.is_some() && self.segs >= 2 * V::N && self.segs < 1 << 25
     }
 
     /// The curve without its grid: [`WideLong::eval`] searches whatever the curve (for the
@@ -769,11 +770,11 @@ impl<V: Vector> WideLong<'_, V> {
         let [_, ys, slopes] = self.lookup;
         let xs = self.lookup[0];
         let (x0, y, slope) = if self.guess {
-            let b = x.sub(self.x0).mul(self.scale).min(self.top).truncated();
+            let b = x.sub(self.x0).mul(self.scale).min(self.top);
             if V::ROWS {
                 assert!(self.rows.len() == s);
                 // SAFETY: each bucket is below `P`, a row of the `P` (asserted).
-                let [x0, y, slope, next, y1, slope1] = V::rows(self.rows.as_ptr().cast(), b);
+                let [x0, y, slope, next, y1, slope1] = b.rows(self.rows.as_ptr().cast());
                 let up = next.le(x);
                 (
                     x0.select(up, next),
@@ -781,7 +782,7 @@ impl<V: Vector> WideLong<'_, V> {
                     slope.select(up, slope1),
                 )
             } else {
-                let first = self.fetch(3, b).index_bits();
+                let first = self.fetch(3, b.truncated()).index_bits();
                 let i = V::moved(first, self.fetch(4, first).le(x), V::plus(first, 1));
                 (self.fetch(0, i), self.fetch(1, i), self.fetch(2, i))
             }

@@ -95,9 +95,10 @@ pub(crate) trait Vector: Copy {
     unsafe fn gather(p: *const f64, i: Self::Index) -> Self;
     /// Whether `WideLong::eval` guesses from rows ([`Vector::rows`]) rather than gathers.
     const ROWS: bool;
-    /// `[r[0], .., r[5]]` where lane `j` of `r[k]` is `*p.add(8 i[j] + k)`: six numbers of a row
-    /// of eight for each lane (each of them valid for reads).
-    unsafe fn rows(p: *const f64, i: Self::Index) -> [Self; 6];
+    /// `[r[0], .., r[5]]` where lane `j` of `r[k]` is `*p.add(8 i + k)`, `i` lane `j` of `self`
+    /// truncated: six numbers of a row of eight for each lane (each lane a number in `-1 < x <
+    /// 2^25`, each of the numbers valid for reads).
+    unsafe fn rows(self, p: *const f64) -> [Self; 6];
 }
 
 /// Eight lanes: AVX-512F.
@@ -252,8 +253,8 @@ impl Vector for V8 {
     const ROWS: bool = false;
     /// Six gathers.
     #[inline(always)]
-    unsafe fn rows(p: *const f64, i: __m512i) -> [Self; 6] {
-        let at = Self::times(i, 3);
+    unsafe fn rows(self, p: *const f64) -> [Self; 6] {
+        let at = Self::times(self.truncated(), 3);
         let mut r = [Self::zero(); 6];
         for (k, r) in r.iter_mut().enumerate() {
             *r = Self::gather(p.add(k), at);
@@ -439,22 +440,37 @@ impl Vector for V4 {
         V4(_mm256_i64gather_pd::<8>(p, i))
     }
     const ROWS: bool = true;
-    /// The lanes' rows `a`, `b`, `c`, `d` read in halves of two numbers: `[a0 a1 c0 c1]` and
-    /// `[b0 b1 d0 d1]` (a load and a `vinsertf128` each), `vunpcklpd` of them `[a0 b0 c0 d0]`,
-    /// `vunpckhpd` `[a1 b1 c1 d1]`; the same for numbers 2 and 3, 4 and 5. Twelve loads and six
-    /// shuffles, where gathers are six `vgatherqpd`.
+    /// The lanes' rows `a`, `b`, `c`, `d`: numbers 0 to 3 of each read whole (a row is 64-byte
+    /// aligned) and transposed (`vunpcklpd`/`vunpckhpd` of `a`, `b` and of `c`, `d`, then
+    /// `vperm2f128` of their halves); numbers 4 and 5 read in halves, `[a4 a5 c4 c5]` and `[b4 b5
+    /// d4 d5]` (a load and a `vinsertf128` each), `vunpcklpd` of them `[a4 b4 c4 d4]`, `vunpckhpd`
+    /// `[a5 b5 c5 d5]`. Eight loads, where gathers are six `vgatherqpd`. The rows' byte offsets
+    /// are computed in 32-bit lanes (`vcvttpd2dq`, `vpslld` by 6: below `2^31`) and taken out
+    /// one by one (`vmovd`, `vpextrd`), with no widening to 64-bit lanes.
     #[inline(always)]
-    unsafe fn rows(p: *const f64, i: __m256i) -> [Self; 6] {
-        let mut at = [0i64; 4];
-        _mm256_storeu_si256(at.as_mut_ptr().cast(), i);
-        let [a, b, c, d] = at.map(|j| p.offset(8 * j as isize));
-        let mut r = [Self::zero(); 6];
-        for k in [0, 2, 4] {
-            let (ac, bd) = (halves(a, c, k), halves(b, d, k));
-            r[k] = V4(_mm256_unpacklo_pd(ac, bd));
-            r[k + 1] = V4(_mm256_unpackhi_pd(ac, bd));
-        }
-        r
+    unsafe fn rows(self, p: *const f64) -> [Self; 6] {
+        let at = _mm_slli_epi32::<6>(_mm256_cvttpd_epi32(self.0));
+        let p: *const u8 = p.cast();
+        let [a, b, c, d] = [
+            _mm_cvtsi128_si32(at),
+            _mm_extract_epi32::<1>(at),
+            _mm_extract_epi32::<2>(at),
+            _mm_extract_epi32::<3>(at),
+        ]
+        .map(|j| p.add(j as u32 as usize).cast::<f64>());
+        let [ra, rb, rc, rd] = [a, b, c, d].map(|r| _mm256_loadu_pd(r));
+        let (ab0, ab1) = (_mm256_unpacklo_pd(ra, rb), _mm256_unpackhi_pd(ra, rb));
+        let (cd0, cd1) = (_mm256_unpacklo_pd(rc, rd), _mm256_unpackhi_pd(rc, rd));
+        let (ac, bd) = (halves(a, c, 4), halves(b, d, 4));
+        [
+            _mm256_permute2f128_pd::<0x20>(ab0, cd0),
+            _mm256_permute2f128_pd::<0x20>(ab1, cd1),
+            _mm256_permute2f128_pd::<0x31>(ab0, cd0),
+            _mm256_permute2f128_pd::<0x31>(ab1, cd1),
+            _mm256_unpacklo_pd(ac, bd),
+            _mm256_unpackhi_pd(ac, bd),
+        ]
+        .map(V4)
     }
 }
 
@@ -627,9 +643,12 @@ mod tests {
             let want: Vec<f64> = at.iter().map(|&c| long[c]).collect();
             let got = lanes(V::gather(long.as_ptr(), scaled));
             assert_eq!(bits(&got), bits(&want), "{at:?}");
-            // (and rows of eight from them: `8 * 30 + 5` within the table's `64 n`)
+            // (and rows of eight from them, from the indexes as numbers and a fraction: `8 * 30 +
+            // 5` within the table's `64 n`)
             if shift < 2 {
-                for (k, got) in V::rows(long.as_ptr(), scaled).into_iter().enumerate() {
+                let near: Vec<f64> = at.iter().map(|&c| c as f64 + 0.75).collect();
+                let rows = V::load(near.as_ptr()).rows(long.as_ptr());
+                for (k, got) in rows.into_iter().enumerate() {
                     let want: Vec<f64> = at.iter().map(|&c| long[8 * c + k]).collect();
                     assert_eq!(bits(&lanes(got)), bits(&want), "{at:?} {k}");
                 }
