@@ -773,7 +773,9 @@ impl<V: Vector> WideLong<'_, V> {
             let b = x.sub(self.x0).mul(self.scale).min(self.top);
             if V::ROWS {
                 assert!(self.rows.len() == s);
-                // SAFETY: each bucket is below `P`, a row of the `P` (asserted).
+                // SAFETY: each bucket is a number from `-0.0` to `P - 1`, the index of one of
+                // the `P` rows (asserted), and `P < 2^25` (`LongCurve::guesses`), as `rows`
+                // asks.
                 let [x0, y, slope, next, y1, slope1] = b.rows(self.rows.as_ptr().cast());
                 let up = next.le(x);
                 (
