@@ -883,7 +883,8 @@ impl Engine {
             snap: [vec![0.0; k.n_mce], vec![0.0; k.n_mce]],
             blown: None,
             acc: vec![0.0; if k.compact { k.nm } else { 0 }],
-            pairs: [(); 2].map(|()| vec![[0.0; 2]; if k.pull.is_some() { nm } else { 0 }]),
+            pairs: [(); 2]
+                .map(|()| vec![[0.0; 2]; k.pull.as_ref().map_or(0, |p| p.buffer_len(nm))]),
             grid: Lines::zeros(k.grid.as_ref().map_or(0, |g| g.scratch_len())),
         };
         st.reset(&k);
@@ -5135,7 +5136,9 @@ mod tests {
                 let net = lnl_ref_springs(seed + 10 * p as u64, n, inertia, pair, every);
                 the_avx2_pull_step_gives_the_scalar_bits(&net, &what);
                 let pulled = Engine::new_for(&net, Simd::Avx2);
-                assert_eq!(pulled.k.pull.unwrap().curve_pairs(), 1, "{what}");
+                let pull = pulled.k.pull.unwrap();
+                assert_eq!(pull.curve_pairs(), 1, "{what}");
+                assert!(pull.stores_forces(), "{what}");
                 seen_full[usize::from(toggled_gives_the_scalar_bits(&net, &what))] = true;
             }
         }
@@ -5166,7 +5169,13 @@ mod tests {
                     toggled_gives_the_scalar_bits(&net, &what);
                     let pull = Engine::new_for(&net, Simd::Avx2).k.pull.unwrap();
                     assert_eq!((pull.curve_pairs(), pull.long_pairs()), (0, 1), "{what}");
+                    assert!(pull.stores_forces(), "{what}");
                 }
+                assert!(Engine::new_for(&but, Simd::Avx2)
+                    .k
+                    .pull
+                    .unwrap()
+                    .stores_forces());
                 the_avx2_pull_step_gives_the_scalar_bits(&but, &what);
                 seen_full[usize::from(toggled_gives_the_scalar_bits(&but, &what))] = true;
             }
@@ -5198,6 +5207,7 @@ mod tests {
             toggled_gives_the_scalar_bits(&net, &what);
             let pull = Engine::new_for(&net, Simd::Avx2).k.pull.unwrap();
             assert!(pull.curve_pairs() + pull.long_pairs() > 1, "{what}");
+            assert!(!pull.stores_forces(), "{what}");
         }
         for (seed, n) in [(49, 40), (50, 500)] {
             let what = format!("pairs {seed} and a BUT");

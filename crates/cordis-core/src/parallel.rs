@@ -177,6 +177,18 @@ impl SharedBuf {
         unsafe { std::slice::from_raw_parts(self.ptr, self.len) }
     }
 
+    /// Elements `r`, read-only.
+    ///
+    /// # Safety
+    /// The buffer must still be valid, and no thread may write any element of `r` while the
+    /// returned slice is alive.
+    pub(crate) unsafe fn read_part(&self, r: Range<usize>) -> &[f64] {
+        assert!(r.start <= r.end && r.end <= self.len, "range out of buffer");
+        // SAFETY: in bounds (just checked); the caller guarantees that no one writes `r` while
+        // this shared slice lives.
+        unsafe { std::slice::from_raw_parts(self.ptr.add(r.start), r.end - r.start) }
+    }
+
     /// Elements `r`, exclusively.
     ///
     /// # Safety

@@ -53,6 +53,18 @@
 //! and rows four lanes at a time ([`avx2`]); without either the network keeps the compact or
 //! gather step.
 //!
+//! **LNL forces stored, on AVX2.** Computed from both ends, a link of curves costs two
+//! evaluations of them, most of its time for a long curve. So the AVX2 step of a network of one
+//! pair of curves ([`Pull::stored`]) evaluates each LNL link once a step, before the rows, eight
+//! links at a time from its ends' pairs ([`Pull::store_forces`]: the reference's `d = x1 - x2`
+//! and `v = v1 - v2`, and the pair's bits of `LK(d) + LZ(v)`, the reference's `f`), and stores
+//! the forces past the pairs in the pair buffer. An LNL lane's row offset names its link's force:
+//! the row's 16-byte load brings `f` where a pair's `x` would be, and the lane takes `f`, negated
+//! where its MAS is end 2, the value its two evaluations gave (the same bits). On threads, each
+//! thread stores the forces of its share of the links, and a barrier orders them before the rows
+//! ([`PullJob`]). Measured in docs/BENCHMARKS.md, fifty-seventh session: 1.2x on a random
+//! network of 3-point curves, 1.7x with 33 points. (Not yet on AVX-512.)
+//!
 //! CEL (few in practice) pull their terms one at a time with the same expressions; ENX read
 //! their signal; SOL never change. The pair buffers are rebuilt from the positions at the start
 //! of every block, so the pull step and the other steps can take turns on one state.
@@ -274,6 +286,11 @@ pub(super) struct Pull {
     cel: CelTerms,
     /// The links the outputs read: computed before each step's outputs.
     recorded: Vec<Recorded>,
+    /// When the AVX2 step evaluates each LNL link once a step ([`Pull::store_forces`]): the
+    /// byte offsets of the pairs of its ends 1 and 2, eight links a chunk (the last padded with
+    /// links from pair 0 to pair 0), link `i` of the list storing its force into `f64` number
+    /// `2 nm + i` of the pair buffer, which its lanes' rows read. Else empty.
+    stored: Vec<[[u32; LANES]; 2]>,
 }
 
 impl Pull {
@@ -418,7 +435,17 @@ impl Pull {
                 inputs: Vec::new(),
             },
             recorded: Vec::new(),
+            stored: Vec::new(),
         };
+        // (the LNL links' numbers in `stored`, in the order the rows first name them, so that a
+        // group's forces are near each other; `u32::MAX` until named)
+        let store = isa == Isa::Avx2 && !several && (curves.is_some() || !p.longs.is_empty());
+        let mut stored_at = vec![u32::MAX; if store { k.nl } else { 0 }];
+        let mut stored_ends: Vec<[u32; 2]> = Vec::new();
+        let forces_at = 16 * k.nm as u64;
+        if forces_at + 8 * (k.nl as u64 + 2 * LANES as u64) > u64::from(u32::MAX) {
+            return None; // (`Row::at` is a 32-bit byte offset)
+        }
         if uniform {
             let (kk, zz) = first.map_or((0.0, 0.0), |l| (k.lk[l], k.lz[l]));
             p.params.push([[kk; LANES], [zz; LANES]]);
@@ -469,6 +496,16 @@ impl Pull {
                     }
                     assert!((other as usize) < k.nm);
                     row.at[i] = 16 * other;
+                    if let Some(&(_, l, _)) = links[i].get(r).filter(|_| store) {
+                        if law[l] == Law::Lnl {
+                            if stored_at[l] == u32::MAX {
+                                stored_at[l] = stored_ends.len() as u32;
+                                stored_ends.push([16 * k.la[l], 16 * k.lb[l]]);
+                            }
+                            // (checked above: below `u32::MAX`)
+                            row.at[i] = (forces_at + 8 * u64::from(stored_at[l])) as u32;
+                        }
+                    }
                 }
                 p.rows.push(row);
                 if p.several {
@@ -550,6 +587,21 @@ impl Pull {
             p.runs = runs(&p.bounds, &p.row_curves);
         }
         p.recorded = k.recorded_links()?;
+        for ends in stored_ends.chunks(LANES) {
+            let mut chunk = [[0; LANES]; 2];
+            for (i, &[a, b]) in ends.iter().enumerate() {
+                assert!(a < 16 * k.nm as u32 && b < 16 * k.nm as u32);
+                [chunk[0][i], chunk[1][i]] = [a, b];
+            }
+            p.stored.push(chunk);
+        }
+        // (every 16-byte load of a row within a pair buffer: a pair, or a stored force and the
+        // 8 bytes after it)
+        let bytes = 16 * p.buffer_len(k.nm);
+        assert!(p
+            .rows
+            .iter()
+            .all(|r| r.at.iter().all(|&o| o as usize + 16 <= bytes)));
         let long = |i: u32| (i as usize) < p.longs.len();
         let known =
             |pair: u32| (pair as usize) < p.pairs.len() || (pair >= LONGS && long(pair - LONGS));
@@ -751,17 +803,59 @@ impl Pull {
             .collect()
     }
 
+    /// The length of each pair buffer, in pairs: `nm`, and when the LNL forces are stored
+    /// ([`Pull::stored`]), room for them and for the 8 bytes past the last that a row's 16-byte
+    /// load of it reads.
+    pub(super) fn buffer_len(&self, nm: usize) -> usize {
+        match self.stored.len() {
+            0 => nm,
+            chunks => nm + LANES * chunks / 2 + 1,
+        }
+    }
+
+    /// Whether the AVX2 step evaluates each LNL link once a step ([`Pull::stored`]).
+    pub(super) fn stores_forces(&self) -> bool {
+        !self.stored.is_empty()
+    }
+
+    /// The chunks of [`Pull::stored`] thread `t` of `threads` evaluates.
+    pub(super) fn stored_share(&self, t: usize, threads: usize) -> Range<usize> {
+        let n = self.stored.len();
+        n * t / threads..n * (t + 1) / threads
+    }
+
+    /// The forces of the LNL links of the chunks `chunks` of [`Pull::stored`], from the `nm`
+    /// pairs of step `n` in `pc`, into `forces` (`f64` number `2 nm + 8 chunks.start` of the
+    /// buffer on: exactly `8 chunks.len()` of them).
+    pub(super) fn store_forces(&self, pc: &[[f64; 2]], chunks: Range<usize>, forces: &mut [f64]) {
+        let ends = &self.stored[chunks];
+        assert!(forces.len() == LANES * ends.len());
+        #[cfg(target_arch = "x86_64")]
+        {
+            assert!(self.isa == Isa::Avx2);
+            // SAFETY: `Pull::new` made `Isa::Avx2` (asserted) from `Simd::Avx2`, which
+            // `Simd::detect` returns (and a test asks for) only when the CPU has AVX2.
+            unsafe { self.store_forces_avx2(pc, ends, forces) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = (pc, ends, forces);
+            unreachable!("a pull step needs AVX-512 or AVX2, which exist only on x86-64");
+        }
+    }
+
     /// Sets the pairs of step `st.n` (buffer 0) from the positions, and the SOL's (which never
     /// change) in buffer 1 too.
     pub(super) fn prepare(&self, k: &Kernel, st: &mut State) {
         let r = Roles::at(st.c);
         let (x, xp): (&[f64], &[f64]) = (&st.pos[r.cur], &st.pos[r.prev]);
         let [p0, p1] = &mut st.pairs;
-        assert!(p0.len() == k.nm && p1.len() == k.nm);
+        let len = self.buffer_len(k.nm);
+        assert!(p0.len() == len && p1.len() == len);
         for ((p, &x), &xp) in p0.iter_mut().zip(x).zip(xp) {
             *p = [x, x - xp];
         }
-        p1[k.n_mce..].copy_from_slice(&p0[k.n_mce..]);
+        p1[k.n_mce..k.nm].copy_from_slice(&p0[k.n_mce..k.nm]);
     }
 
     /// Steps `frames` times from `st` on the calling thread, writing the outputs into `out` (see
@@ -789,15 +883,22 @@ impl Pull {
             ..
         } = st;
         let [p0, p1] = pairs;
+        let (nm, chunks) = (k.nm, 0..self.stored.len());
         let mut flip = false;
         for frame in 0..frames {
             let roles = Roles::at(*c);
             let (cur, prev, next) = roles.split(pos);
             let (pc, pn) = if flip {
-                (&p1[..], &mut p0[..])
+                (&mut p1[..], &mut p0[..])
             } else {
-                (&p0[..], &mut p1[..])
+                (&mut p0[..], &mut p1[..])
             };
+            if !chunks.is_empty() {
+                let (pairs, rest) = pc.split_at_mut(nm);
+                let forces = &mut rest.as_flattened_mut()[..LANES * chunks.len()];
+                self.store_forces(pairs, chunks.clone(), forces);
+            }
+            let pc = &pc[..];
             self.record(k, cur, prev, sf, &mut out[frame * ch..(frame + 1) * ch]);
             let mine = whole.slots.clone();
             let now = Now {
@@ -834,7 +935,7 @@ impl Pull {
             k, cur, prev, pc, ..
         } = now;
         let nm = k.nm;
-        assert!(cur.len() == nm && prev.len() == nm && pc.len() == nm);
+        assert!(cur.len() == nm && prev.len() == nm && pc.len() == self.buffer_len(nm));
         let slots = share.slots.clone();
         assert!(next.len() == slots.len() && pn.len() == slots.len());
         let mas = slots.end.min(k.n_mas) - slots.start;
@@ -1888,6 +1989,10 @@ unsafe fn pairs(
 /// | --- | --- |
 /// | `pos[cur]`, `pos[prev]`, `pc` | the slots of the chunks it claimed in `pos[next]` and in `pn` |
 ///
+/// When the LNL forces are stored ([`Pull::stores_forces`]), each step has a phase before
+/// that one, ended by a barrier of its own: every thread reads the `nm` pairs of `pc` and writes
+/// the forces of its [`Pull::stored_share`] into `pc`, past them; the phase after reads them.
+///
 /// Thread 0 also records the outputs: it reads `pos[cur]` and `pos[prev]`, and writes `sf` (the
 /// recorded links' forces) and its frame of the output, which no other thread touches. Nothing
 /// a step reads is written in it, and the chunks' slots are disjoint (consecutive ranges of the
@@ -1936,6 +2041,19 @@ impl PullJob<'_> {
         for s in 0..self.frames {
             let r = Roles::at(c);
             let (pc, pn) = (&self.pairs[s % 2], &self.pairs[1 - s % 2]);
+            if self.pull.stores_forces() {
+                let (nm, chunks) = (k.nm, self.pull.stored_share(t, threads));
+                let forces = 2 * nm + LANES * chunks.start..2 * nm + LANES * chunks.end;
+                // SAFETY: the first phase of the step in the type's documentation: shared reads
+                // of the pairs, which nobody writes in it, and exclusive writes to this thread's
+                // forces (its chunks, disjoint from every other thread's), both slices dropped
+                // before the barrier that ends the phase.
+                unsafe {
+                    let pairs = pc.read_part(0..2 * nm).as_chunks::<2>().0;
+                    self.pull.store_forces(pairs, chunks, pc.write(forces));
+                }
+                barrier.wait()?;
+            }
             // SAFETY: each access follows the table in the type's documentation: shared reads of
             // buffers nobody writes in this step, exclusive writes to the slots of the chunks
             // this thread claimed (or, on thread 0, to `sf`), every slice dropped before the

@@ -21,6 +21,9 @@
 //! is not finite either: both steps reach a non-finite position at the same step, where the
 //! engine replays the block with the reference's step to report it (`Engine::check_block`).
 //!
+//! A network of one pair of LNL curves stores its links' forces before the rows ([`Stored4`],
+//! [`store_forces`]; the parent module's "LNL forces stored"), and its LNL lanes read them.
+//!
 //! The last group, which may be partial, is computed as a whole one, on copies of its lanes padded
 //! with zeros, and only its lanes are stored (`Pull::groups_avx2_as`): its padding lanes' terms
 //! read pair 0 and have no BUT or LNL mask bit, and whatever they compute is dropped. Computed lane
@@ -60,6 +63,14 @@ impl Pull {
         out: Slots,
     ) {
         match &self.curves {
+            _ if self.stores_forces() => {
+                let curves = Curves4 {
+                    c: Stored4,
+                    full_rows: self.full_rows,
+                    masked: self.masked,
+                };
+                self.groups_avx2_with(&curves, now, params, out)
+            }
             Some(pair) => pair.visit(WithCurves4 {
                 pull: self,
                 now,
@@ -92,6 +103,31 @@ impl Pull {
                     (false, _, false) => with!(Refs::<false>),
                     (false, _, MASKED) => with!(Refs::<MASKED>),
                 }
+            }
+        }
+    }
+
+    /// [`Pull::store_forces`]: the forces of the LNL links of `ends` (chunks of
+    /// [`Pull::stored`]) into `forces`, eight a chunk, from the pairs `pc`, with the network's
+    /// one pair of curves.
+    ///
+    /// # Safety
+    /// The CPU has AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn store_forces_avx2(
+        &self,
+        pc: &[[f64; 2]],
+        ends: &[[[u32; LANES]; 2]],
+        forces: &mut [f64],
+    ) {
+        match &self.curves {
+            Some(pair) => pair.visit(StoreForces4 { pc, ends, forces }),
+            None => {
+                // (no `curves` and no table: one long pair, `Pull::new`)
+                assert!(self.longs.len() == 1 && !self.several);
+                // SAFETY: this function is compiled with AVX2.
+                let c = unsafe { Long4::new(&self.longs[0]) };
+                store_forces(&c, pc, ends, forces);
             }
         }
     }
@@ -235,8 +271,9 @@ impl Pull {
             // (the bits of the pairs' `v`: `prepare` and the step before computed them so)
             let v = [_mm256_sub_pd(x[0], xp[0]), _mm256_sub_pd(x[1], xp[1])];
             let rows = rows[0] as usize..rows[1] as usize;
-            // SAFETY: every row's offsets are those of pairs `< nm` (asserted in `new`), and `pc`
-            // has `nm` pairs (asserted in `step`).
+            // SAFETY: every row's 16-byte loads lie within `buffer_len(nm)` pairs (asserted in
+            // `new`: a pair `< nm`, or a stored force and the 8 bytes after it), which `pc` has
+            // (asserted in `step`).
             let group = Group::new(rows.clone(), params(rows), base, (x, v), ());
             let mut f = unsafe { terms.sum(self, group) };
             let inputs = &self.enf[inputs[0] as usize..inputs[1] as usize];
@@ -319,7 +356,7 @@ trait Terms4: Copy {
     ///
     /// # Safety
     /// The CPU has AVX2 and the calling function is compiled with it; every offset of the rows is
-    /// that of a pair within the buffer at `group.base`.
+    /// that of 16 bytes within the buffer at `group.base` (a pair or a stored force).
     unsafe fn sum<'p>(&self, pull: &Pull, group: Group4<impl Params<'p>>) -> [__m256d; 2];
 }
 
@@ -380,6 +417,87 @@ trait Forces4 {
     /// # Safety
     /// The CPU has AVX2 and the calling function is compiled with it.
     unsafe fn forces(&self, r: usize, h: usize, d: __m256d, dv: __m256d) -> __m256d;
+
+    /// Whether the forces were stored before the rows ([`Stored4`]): then an LNL lane's load
+    /// of its "pair" brings its link's force in the `x` position, and `forces` is not called.
+    const STORED: bool = false;
+}
+
+/// The forces of the LNL links, stored before the rows ([`Pull::stored`], [`store_forces`]).
+#[derive(Clone, Copy)]
+struct Stored4;
+
+impl Forces4 for Stored4 {
+    const STORED: bool = true;
+
+    unsafe fn forces(&self, _: usize, _: usize, _: __m256d, _: __m256d) -> __m256d {
+        unreachable!("stored forces are read, not evaluated")
+    }
+}
+
+/// The forces of the LNL links of `ends` (eight a chunk: the byte offsets in `pc` of the pairs
+/// of ends 1 and 2) by `c`, into `forces`, eight a chunk: the reference's `d = x1 - x2` and `v =
+/// v1 - v2` (each `v` is `x(n) - x(n-1)`, as the reference's operands, see the parent module),
+/// and `c`'s bits of `LK(d) + LZ(v)`, the reference's force.
+#[target_feature(enable = "avx2")]
+fn store_forces<C: Forces4>(
+    c: &C,
+    pc: &[[f64; 2]],
+    ends: &[[[u32; LANES]; 2]],
+    forces: &mut [f64],
+) {
+    assert!(forces.len() == LANES * ends.len());
+    let base = pc.as_ptr().cast::<u8>();
+    let limit = 16 * pc.len();
+    for ([a, b], out) in ends.iter().zip(forces.chunks_exact_mut(LANES)) {
+        assert!(a.iter().chain(b).all(|&o| (o as usize) < limit));
+        // SAFETY: every offset is that of a pair of `pc` (asserted), and the CPU has AVX2 (this
+        // function is compiled with it).
+        let ((xa, va), (xb, vb)) = unsafe { (pairs(base, a), pairs(base, b)) };
+        for h in 0..2 {
+            let (d, dv) = (_mm256_sub_pd(xa[h], xb[h]), _mm256_sub_pd(va[h], vb[h]));
+            // SAFETY: as above; four of the eight `f64` of `out`.
+            unsafe {
+                let f = c.forces(0, h, d, dv);
+                _mm256_storeu_pd(out.as_mut_ptr().add(HALF * h), f);
+            }
+        }
+    }
+}
+
+/// [`store_forces`] with a pair of at most 16 points, at its point counts.
+struct StoreForces4<'a> {
+    pc: &'a [[f64; 2]],
+    ends: &'a [[[u32; LANES]; 2]],
+    forces: &'a mut [f64],
+}
+
+impl PairFn for StoreForces4<'_> {
+    type Out = ();
+
+    fn call<const A: usize, const B: usize>(self, k: &ExactCurve<A>, z: &ExactCurve<B>) {
+        // SAFETY: the pull step stores forces only with `Isa::Avx2` (`Pull::new`), made where
+        // the CPU has AVX2 (see `Pull::store_forces`).
+        unsafe { self.avx2(k, z) }
+    }
+}
+
+impl StoreForces4<'_> {
+    /// [`PairFn::call`], compiled with AVX2.
+    ///
+    /// # Safety
+    /// The CPU has AVX2.
+    #[target_feature(enable = "avx2")]
+    unsafe fn avx2<const A: usize, const B: usize>(self, k: &ExactCurve<A>, z: &ExactCurve<B>) {
+        // SAFETY: the caller's promise (`V4`).
+        let c = unsafe {
+            Pair4 {
+                k: k.wide::<V4>(),
+                z: z.wide::<V4>(),
+            }
+        };
+        store_forces(&c, self.pc, self.ends, self.forces);
+    }
 }
 
 /// A pair of at most 16 points, of `A` and `B` (the network's `Pull::curves`).
@@ -753,7 +871,10 @@ unsafe fn sum_lnl<'p, C: Forces4>(
             let d = _mm256_sub_pd(x[h], xj[h]);
             let dv = _mm256_sub_pd(v[h], vj[h]);
             let lnl_lanes = lanes(lnls, h);
-            let lnl = if has(lnls, h) {
+            let lnl = if C::STORED {
+                // (the link's force, from the lane's load: see `Forces4::STORED`)
+                _mm256_xor_pd(xj[h], _mm256_and_pd(lanes(row.flip, h), sign))
+            } else if has(lnls, h) {
                 let flip = _mm256_and_pd(lanes(row.flip, h), sign);
                 let (d, dv) = (_mm256_xor_pd(d, flip), _mm256_xor_pd(dv, flip));
                 // SAFETY: the CPU has AVX2 (the caller's promise).
@@ -836,7 +957,7 @@ fn products_if(
 /// `group.base`.
 ///
 /// # Safety
-/// The CPU has AVX2, and every offset of `rows` is that of a pair within the buffer.
+/// The CPU has AVX2, and every offset of `rows` is that of 16 bytes within the buffer.
 #[target_feature(enable = "avx2")]
 #[inline]
 unsafe fn sum<'p, const M: bool>(rows: &[Row], group: Group4<impl Params<'p>>) -> [__m256d; 2] {
@@ -864,14 +985,14 @@ unsafe fn sum<'p, const M: bool>(rows: &[Row], group: Group4<impl Params<'p>>) -
 /// `i`: the pair at `base + at[i]`), as two vectors of four lanes each.
 ///
 /// # Safety
-/// The CPU has AVX2, and `base + at[i]` is a pair of the buffer for every `i`.
+/// The CPU has AVX2, and the 16 bytes at `base + at[i]` are within the buffer for every `i`.
 #[target_feature(enable = "avx2")]
 #[inline]
 unsafe fn pairs(base: *const u8, at: &[u32; LANES]) -> ([__m256d; 2], [__m256d; 2]) {
     // (two offsets per 8-byte load, as the AVX-512 step's `pairs`)
     // SAFETY: `i < 4`: bytes `8 i..8 i + 8` of the 32 bytes of `at`, read unaligned.
     let w = |i: usize| unsafe { at.as_ptr().cast::<u64>().add(i).read_unaligned() };
-    // SAFETY: each 16-byte load reads one pair of the buffer (the caller's promise).
+    // SAFETY: each 16-byte load reads 16 bytes of the buffer (the caller's promise).
     let p = |o: u64| unsafe { _mm_loadu_pd(base.add(o as u32 as usize).cast::<f64>()) };
     let two = |lo: __m128d, hi: __m128d| _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(lo), hi);
     let (w0, w1, w2, w3) = (w(0), w(1), w(2), w(3));
