@@ -63,7 +63,7 @@
 //! where its MAS is end 2, the value its two evaluations gave (the same bits). On threads, each
 //! thread stores the forces of its share of the links, and a barrier orders them before the rows
 //! ([`PullJob`]). Measured in docs/BENCHMARKS.md, fifty-seventh session: 1.2x on a random
-//! network of 3-point curves, 1.7x with 33 points. (Not yet on AVX-512.)
+//! network of 3-point curves, 1.65x with 33 points. (Not yet on AVX-512.)
 //!
 //! CEL (few in practice) pull their terms one at a time with the same expressions; ENX read
 //! their signal; SOL never change. The pair buffers are rebuilt from the positions at the start
