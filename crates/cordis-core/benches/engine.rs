@@ -51,9 +51,11 @@
 //!   viscosity 1e-5 (air damping): rows of REF and FRO terms.
 //!
 //! `threads [N [T [KIND...]]]` times a string of N masses, a membrane of about N masses (316x316
-//! for 100,000), a `pair` of membranes of about N/2 masses each (224x224) and a random network of
-//! N masses (or only the KINDs named: `string`, `membrane`, `pair`, `random`) on 1 and on T threads (default 2), printing both figures, their ratio, the load
-//! average and whether the outputs are bit-identical.
+//! for 100,000), a `pair` of membranes of about N/2 masses each (224x224), and random networks of
+//! N masses, of REF links and of LNL links as `random-lnl`, `random-lnl-long` and
+//! `random-lnl-mixed` (or only the models whose names start with the KINDs named: `string`,
+//! `membrane`, `pair`, `random`, `random_lnl`, ...) on 1 and on T threads (default 2), printing
+//! both figures, their ratio, the load average and whether the outputs are bit-identical.
 //!
 //! A kind without a size selects its default models. Work per timed run: `CORDIS_BENCH_WORK`
 //! mass-steps (default 2e8, as `baselines.sh`), i.e. `steps = work / masses` (at least 1000). Each
@@ -1933,6 +1935,44 @@ fn curves_mode() {
     println!("no AVX-512 on this CPU: no curves to time");
 }
 
+/// `ceiling pingpong`: how long a cache line takes to go from one core to the other and back:
+/// two threads hand a counter to each other 2,000,000 times through one atomic (each waits,
+/// spinning, for the other's increment). Half the round trip is what one thread waits each time
+/// it reads a pair the other wrote in the step before; the random network's two-thread ratio
+/// follows it (docs/BENCHMARKS.md, fifty-eighth session).
+fn pingpong_mode() {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    const TRIPS: u64 = 2_000_000;
+    #[repr(align(128))]
+    struct Line(AtomicU64);
+    let line = Line(AtomicU64::new(0));
+    let started = Instant::now();
+    std::thread::scope(|s| {
+        s.spawn(|| {
+            for i in 0..TRIPS {
+                while line.0.load(Ordering::Acquire) != 2 * i + 1 {
+                    std::hint::spin_loop();
+                }
+                line.0.store(2 * i + 2, Ordering::Release);
+            }
+        });
+        for i in 0..TRIPS {
+            line.0.store(2 * i + 1, Ordering::Release);
+            while line.0.load(Ordering::Acquire) != 2 * i + 2 {
+                std::hint::spin_loop();
+            }
+        }
+    });
+    let trip = started.elapsed().as_secs_f64() / TRIPS as f64;
+    println!(
+        "cache line between two threads: round trip {:.1} ns, one way {:.1} ns ({TRIPS} trips; \
+         load average {} at start)",
+        trip * 1e9,
+        trip * 0.5e9,
+        load_average()
+    );
+}
+
 /// `ceiling signs`: how often the links of `random-lnl-long 10000` change the sign of their
 /// stretch `x(b) - x(a)` (their curves' breakpoint at 0) from one step to the next over steps
 /// 3,001 to 4,000, and how often a row of eight lanes does (materials in groups of eight in
@@ -2163,9 +2203,10 @@ fn usage() -> ! {
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
          models as netlists for the C generic kernel cref.c)\n   \
          or: cargo bench -p cordis-core --bench engine -- ceiling MODEL... | ceiling threads [N \
-         [T]] | ceiling pull [N [T]] | ceiling curves | ceiling signs   (hand-written kernels: the \
-         membrane's stencils, the reads of a random network, on T threads, the pull step's two \
-         layouts, two searches of an LNL curve's segment; how often LNL links change segment)"
+         [T]] | ceiling pull [N [T]] | ceiling curves | ceiling signs | ceiling pingpong   \
+         (hand-written kernels: the membrane's stencils, the reads of a random network, on T \
+         threads, the pull step's two layouts, two searches of an LNL curve's segment; how often \
+         LNL links change segment; a cache line's trip between two threads)"
     );
     std::process::exit(2)
 }
@@ -2304,6 +2345,9 @@ fn thread_models(n: usize) -> Vec<Model> {
         membrane(side(n), side(n), None),
         membrane(side(n / 2), side(n / 2), Some(Rim::Pair)),
         random(n, Law::Ref),
+        random(n, Law::Lnl),
+        random(n, Law::LnlLong),
+        random(n, Law::LnlMixed),
     ]
 }
 
@@ -2423,6 +2467,7 @@ fn main() {
             Some("pull") => return pull_layouts_mode(num(2, 10_000, 16), num(3, 2, 1)),
             Some("curves") => return curves_mode(),
             Some("signs") => return signs_mode(),
+            Some("pingpong") => return pingpong_mode(),
             _ => {}
         }
         return ceiling_mode(&parse_args(&args[1..]));

@@ -5059,9 +5059,11 @@ mod tests {
     /// and zero, or one BUT (a hammer's), rows computing their BUTs in full or not. Both kinds
     /// among RES, FRO and REF links too (their springs and dampers masked). So do networks of
     /// BUTs and LNLs of one pair, among REF links or among RES, FRO and REF links; and of several
-    /// pairs, short and long, by row or mixed in some rows, with a BUT among them
-    /// (`avx2::CurveTable4`, a long pair's runs by `avx2::Long4`); and of long pairs alone, one
-    /// (`avx2::Long4`) or several (an empty table).
+    /// pairs, short and long, by row or mixed in some rows, with a BUT among them, and mixed in
+    /// every row, each storing its forces pair by pair; of twelve pairs of three links each,
+    /// which do not store them (`avx2::CurveTable4`; a pair for each link, mixed in every row,
+    /// keeps the other steps);
+    /// and of long pairs alone, one (`avx2::Long4`) or several.
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_avx2_pull_step_takes_but_and_lnl_networks() {
@@ -5207,6 +5209,50 @@ mod tests {
             toggled_gives_the_scalar_bits(&net, &what);
             let pull = Engine::new_for(&net, Simd::Avx2).k.pull.unwrap();
             assert!(pull.curve_pairs() + pull.long_pairs() > 1, "{what}");
+            assert!(pull.stores_forces(), "{what}");
+        }
+        // (pairs mixed in every row, which the AVX-512 step refuses: taken when the forces are
+        // stored, four pairs of many links each; refused when each link has a pair of its own,
+        // whose chunks would be mostly padding)
+        let mixed = |seed: u64, n: usize, pairs: usize| {
+            let mut net = lnl_springs(seed, n, 1);
+            for (i, link) in net.links.iter_mut().enumerate() {
+                let slope = 0.01 * (1 + i % pairs) as f64;
+                link.law = Interaction::Lnl {
+                    lk: Curve::new(&[(-1.0, -slope), (0.0, 0.0), (1.0, 2.0 * slope)]).unwrap(),
+                    lz: Curve::new(&[(-1.0, -1e-3 * slope), (1.0, 1e-3 * slope)]).unwrap(),
+                };
+            }
+            net
+        };
+        for (seed, n) in [(51, 40), (52, 200), (53, 500)] {
+            let what = format!("four pairs in every row {seed}");
+            let net = mixed(seed, n, 4);
+            the_avx2_pull_step_gives_the_scalar_bits(&net, &what);
+            toggled_gives_the_scalar_bits(&net, &what);
+            let pull = Engine::new_for(&net, Simd::Avx2).k.pull.unwrap();
+            assert_eq!(pull.curve_pairs(), 4, "{what}");
+            assert!(pull.stores_forces(), "{what}");
+            let own = mixed(seed, n, usize::MAX);
+            assert!(Engine::new_for(&own, Simd::Avx2).k.pull.is_none(), "{what}");
+        }
+        // (twelve pairs of three links each among REF links: their chunks would be mostly
+        // padding, so the forces are not stored, and the rows read the table,
+        // `avx2::CurveTable4`; the MAS of a pair are stored together, so few rows mix pairs)
+        for seed in [54, 55] {
+            let what = format!("twelve pairs of three links each {seed}");
+            let mut net = ref_springs(seed, 500, 1, false);
+            let few = (5..net.links.len()).step_by(37).take(36);
+            for (j, i) in few.enumerate() {
+                let slope = 0.01 * (1 + j / 3) as f64;
+                net.links[i].law = Interaction::Lnl {
+                    lk: Curve::new(&[(-1.0, -slope), (0.0, 0.0), (1.0, 2.0 * slope)]).unwrap(),
+                    lz: Curve::new(&[(-1.0, -1e-3), (1.0, 1e-3)]).unwrap(),
+                };
+            }
+            the_avx2_pull_step_gives_the_scalar_bits(&net, &what);
+            let pull = Engine::new_for(&net, Simd::Avx2).k.pull.unwrap();
+            assert_eq!(pull.curve_pairs(), 12, "{what}");
             assert!(!pull.stores_forces(), "{what}");
         }
         for (seed, n) in [(49, 40), (50, 500)] {
@@ -5228,7 +5274,8 @@ mod tests {
 
     /// Networks of springs and dampers, with BUTs or LNLs among them, take the pull step on an
     /// AVX-512 CPU (not with curves that do not evaluate eight at a time or do not pad to one
-    /// point count, or pairs of curves mixed in most rows), and it gives the bits of the compact or gather step at every step: positions, outputs, and the
+    /// point count, or pairs of curves mixed in most rows, which an AVX2 CPU takes), and it gives
+    /// the bits of the compact or gather step at every step: positions, outputs, and the
     /// link forces `link_force` reads after each block, whether `process` and `process_observed`
     /// take turns on one engine or not. The BUTs come into and out of contact, with the MAS and
     /// the CEL at either end. A BUT or LNL network's rows give the same bits whether every row
@@ -5276,9 +5323,12 @@ mod tests {
         };
         let taken = Engine::new(&jump(JUMPS_PULL_MIN)).k.pull.is_some();
         assert_eq!(taken, pulls);
-        for net in [zero, jump(JUMPS_PULL_MIN - 1), every_row] {
+        for net in [zero, jump(JUMPS_PULL_MIN - 1)] {
             assert!(Engine::new(&net).k.pull.is_none());
         }
+        // (the AVX2 step stores the forces, and no row evaluates a pair: it takes `every_row`)
+        let stores = Simd::detect() == Simd::Avx2;
+        assert_eq!(Engine::new(&every_row).k.pull.is_some(), stores);
         assert!(Engine::new(&springs(1, 8, None)).k.pull.is_none()); // (fewer than PULL_MIN MAS)
         let mut toggled = 0;
         let mut read_laws = Vec::new();

@@ -54,16 +54,20 @@
 //! gather step.
 //!
 //! **LNL forces stored, on AVX2.** Computed from both ends, a link of curves costs two
-//! evaluations of them, most of its time for a long curve. So the AVX2 step of a network of one
-//! pair of curves ([`Pull::stored`]) evaluates each LNL link once a step, before the rows, eight
-//! links at a time from its ends' pairs ([`Pull::store_forces`]: the reference's `d = x1 - x2`
-//! and `v = v1 - v2`, and the pair's bits of `LK(d) + LZ(v)`, the reference's `f`), and stores
-//! the forces past the pairs in the pair buffer. An LNL lane's row offset names its link's force:
+//! evaluations of them, most of its time for a long curve. So the AVX2 step of a network of LNL
+//! curves ([`Pull::stored`]) evaluates each LNL link once a step, before the rows, eight links of
+//! one pair at a time from their ends' pairs ([`Pull::store_forces`]: the reference's `d = x1 -
+//! x2` and `v = v1 - v2`, and the pair's bits of `LK(d) + LZ(v)`, the reference's `f`; with
+//! several pairs, the links in runs of one pair, [`Pull::stored_runs`], each run padded to whole
+//! chunks, so not where that would more than double the links evaluated), and stores the forces
+//! past the pairs in the pair buffer. An LNL lane's row offset names its link's force:
 //! the row's 16-byte load brings `f` where a pair's `x` would be, and the lane takes `f`, negated
 //! where its MAS is end 2, the value its two evaluations gave (the same bits). On threads, each
 //! thread stores the forces of its share of the links, and a barrier orders them before the rows
-//! ([`PullJob`]). Measured in docs/BENCHMARKS.md, fifty-seventh session: 1.2x on a random
-//! network of 3-point curves, 1.65x with 33 points. (Not yet on AVX-512.)
+//! ([`PullJob`]). No row evaluates a pair then, so the table, the parts and the runs of several
+//! pairs are not read, and networks of pairs mixed in most rows take the step too. Measured in
+//! docs/BENCHMARKS.md, fifty-seventh session: 1.2x on a random network of 3-point curves, 1.65x
+//! with 33 points; fifty-eighth: two pairs mixed link by link 1.77x. (Not yet on AVX-512.)
 //!
 //! CEL (few in practice) pull their terms one at a time with the same expressions; ENX read
 //! their signal; SOL never change. The pair buffers are rebuilt from the positions at the start
@@ -287,10 +291,15 @@ pub(super) struct Pull {
     /// The links the outputs read: computed before each step's outputs.
     recorded: Vec<Recorded>,
     /// When the AVX2 step evaluates each LNL link once a step ([`Pull::store_forces`]): the
-    /// byte offsets of the pairs of its ends 1 and 2, eight links a chunk (the last padded with
-    /// links from pair 0 to pair 0), link `i` of the list storing its force into `f64` number
-    /// `2 nm + i` of the pair buffer, which its lanes' rows read. Else empty.
+    /// byte offsets of the pairs of its ends 1 and 2, eight links a chunk, the links of one pair
+    /// of curves after another ([`Pull::stored_runs`], each pair's last chunk padded with links
+    /// from pair 0 to pair 0), link `i` of the list storing its force into `f64` number `2 nm +
+    /// i` of the pair buffer, which its lanes' rows read. Else empty.
     stored: Vec<[[u32; LANES]; 2]>,
+    /// The chunks of [`Pull::stored`] in runs of one pair of curves, each `(end, pair)`: the
+    /// chunks from the previous run's end (or 0) to `end` are links of `pair` (its number in
+    /// [`CelTerms::lnls`]: a position in [`Pull::pairs`], or [`LONGS`]` + i` for long pair `i`).
+    stored_runs: Vec<(u32, u32)>,
 }
 
 impl Pull {
@@ -436,14 +445,26 @@ impl Pull {
             },
             recorded: Vec::new(),
             stored: Vec::new(),
+            stored_runs: Vec::new(),
         };
         // (the LNL links' numbers in `stored`, in the order the rows first name them, so that a
-        // group's forces are near each other; `u32::MAX` until named)
-        let store = isa == Isa::Avx2 && !several && (curves.is_some() || !p.longs.is_empty());
+        // group's forces are near each other, with each link's pair; `u32::MAX` until named;
+        // renumbered pair by pair after the rows)
+        // (not when the pairs have so few links each that padding their chunks would evaluate
+        // more than twice as many)
+        let mut per_pair: HashMap<u32, usize> = HashMap::new();
+        for l in (0..k.nl).filter(|&l| law[l] == Law::Lnl) {
+            *per_pair.entry(lnl_pair(l)).or_default() += 1;
+        }
+        let links: usize = per_pair.values().sum();
+        let padded: usize = per_pair.values().map(|n| LANES * n.div_ceil(LANES)).sum();
+        let store = isa == Isa::Avx2 && links > 0 && padded <= 2 * links;
         let mut stored_at = vec![u32::MAX; if store { k.nl } else { 0 }];
-        let mut stored_ends: Vec<[u32; 2]> = Vec::new();
+        let mut stored_ends: Vec<([u32; 2], u32)> = Vec::new();
         let forces_at = 16 * k.nm as u64;
-        if forces_at + 8 * (k.nl as u64 + 2 * LANES as u64) > u64::from(u32::MAX) {
+        // (each pair's links padded to whole chunks)
+        let most = padded as u64 + 2 * LANES as u64;
+        if forces_at + 8 * most > u64::from(u32::MAX) {
             return None; // (`Row::at` is a 32-bit byte offset)
         }
         if uniform {
@@ -500,7 +521,7 @@ impl Pull {
                         if law[l] == Law::Lnl {
                             if stored_at[l] == u32::MAX {
                                 stored_at[l] = stored_ends.len() as u32;
-                                stored_ends.push([16 * k.la[l], 16 * k.lb[l]]);
+                                stored_ends.push(([16 * k.la[l], 16 * k.lb[l]], lnl_pair(l)));
                             }
                             // (checked above: below `u32::MAX`)
                             row.at[i] = (forces_at + 8 * u64::from(stored_at[l])) as u32;
@@ -573,7 +594,8 @@ impl Pull {
         }
         // (each part of a row evaluates its pair on the whole row: two pairs in every row ran at
         // 1.4x the gather step on a random network, docs/BENCHMARKS.md, twenty-eighth session)
-        if p.parts.len() >= PARTS as usize || 2 * evaluations[0] > 5 * evaluations[1] {
+        // (with the forces stored, no row evaluates a pair)
+        if p.parts.len() >= PARTS as usize || (!store && 2 * evaluations[0] > 5 * evaluations[1]) {
             return None;
         }
         // (with LNL links, whether the rows compute their springs and dampers, and BUTs, which
@@ -587,13 +609,38 @@ impl Pull {
             p.runs = runs(&p.bounds, &p.row_curves);
         }
         p.recorded = k.recorded_links()?;
-        for ends in stored_ends.chunks(LANES) {
-            let mut chunk = [[0; LANES]; 2];
-            for (i, &[a, b]) in ends.iter().enumerate() {
-                assert!(a < 16 * k.nm as u32 && b < 16 * k.nm as u32);
-                [chunk[0][i], chunk[1][i]] = [a, b];
+        // (the stored links pair by pair, in the order of their pairs' first links, each pair's
+        // in the order the rows first name them, padded to whole chunks; and the rows' offsets
+        // renumbered to match)
+        let mut rank: HashMap<u32, usize> = HashMap::new();
+        for &(_, pair) in &stored_ends {
+            let next = rank.len();
+            rank.entry(pair).or_insert(next);
+        }
+        let mut links: Vec<usize> = (0..stored_ends.len()).collect();
+        links.sort_by_key(|&j| rank[&stored_ends[j].1]); // (stable)
+        let mut renumbered = vec![u32::MAX; stored_ends.len()];
+        for run in links.chunk_by(|&i, &j| stored_ends[i].1 == stored_ends[j].1) {
+            for ends in run.chunks(LANES) {
+                let mut chunk = [[0; LANES]; 2];
+                for (i, &j) in ends.iter().enumerate() {
+                    let [a, b] = stored_ends[j].0;
+                    assert!(a < 16 * k.nm as u32 && b < 16 * k.nm as u32);
+                    [chunk[0][i], chunk[1][i]] = [a, b];
+                    renumbered[j] = (LANES * p.stored.len() + i) as u32;
+                }
+                p.stored.push(chunk);
             }
-            p.stored.push(chunk);
+            p.stored_runs
+                .push((p.stored.len() as u32, stored_ends[run[0]].1));
+        }
+        assert!(p.stored.len() as u64 * LANES as u64 <= most);
+        for row in &mut p.rows {
+            for at in row.at.iter_mut().filter(|at| u64::from(**at) >= forces_at) {
+                let old = (u64::from(*at) - forces_at) / 8;
+                // (checked above: below `u32::MAX`)
+                *at = (forces_at + 8 * u64::from(renumbered[old as usize])) as u32;
+            }
         }
         // (every 16-byte load of a row within a pair buffer: a pair, or a stored force and the
         // 8 bytes after it)
@@ -828,19 +875,30 @@ impl Pull {
     /// pairs of step `n` in `pc`, into `forces` (`f64` number `2 nm + 8 chunks.start` of the
     /// buffer on: exactly `8 chunks.len()` of them).
     pub(super) fn store_forces(&self, pc: &[[f64; 2]], chunks: Range<usize>, forces: &mut [f64]) {
-        let ends = &self.stored[chunks];
-        assert!(forces.len() == LANES * ends.len());
-        #[cfg(target_arch = "x86_64")]
-        {
-            assert!(self.isa == Isa::Avx2);
-            // SAFETY: `Pull::new` made `Isa::Avx2` (asserted) from `Simd::Avx2`, which
-            // `Simd::detect` returns (and a test asks for) only when the CPU has AVX2.
-            unsafe { self.store_forces_avx2(pc, ends, forces) }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            let _ = (pc, ends, forces);
-            unreachable!("a pull step needs AVX-512 or AVX2, which exist only on x86-64");
+        assert!(forces.len() == LANES * chunks.len());
+        let mut start = 0;
+        // (each run of one pair's chunks within `chunks`, with that pair's curves)
+        for &(end, pair) in &self.stored_runs {
+            let run = start.max(chunks.start)..(end as usize).min(chunks.end);
+            start = end as usize;
+            if run.is_empty() {
+                continue;
+            }
+            let ends = &self.stored[run.clone()];
+            let at = LANES * (run.start - chunks.start)..LANES * (run.end - chunks.start);
+            let forces = &mut forces[at];
+            #[cfg(target_arch = "x86_64")]
+            {
+                assert!(self.isa == Isa::Avx2);
+                // SAFETY: `Pull::new` made `Isa::Avx2` (asserted) from `Simd::Avx2`, which
+                // `Simd::detect` returns (and a test asks for) only when the CPU has AVX2.
+                unsafe { self.store_forces_avx2(pc, pair, ends, forces) }
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            {
+                let _ = (pc, pair, ends, forces);
+                unreachable!("a pull step needs AVX-512 or AVX2, which exist only on x86-64");
+            }
         }
     }
 

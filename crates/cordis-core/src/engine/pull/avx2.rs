@@ -21,8 +21,10 @@
 //! is not finite either: both steps reach a non-finite position at the same step, where the
 //! engine replays the block with the reference's step to report it (`Engine::check_block`).
 //!
-//! A network of one pair of LNL curves stores its links' forces before the rows ([`Stored4`],
-//! [`store_forces`]; the parent module's "LNL forces stored"), and its LNL lanes read them.
+//! A network of LNL curves stores its links' forces before the rows, one pair's links at a time
+//! ([`Stored4`], [`store_forces`]; the parent module's "LNL forces stored"), and its LNL lanes
+//! read them. [`CurveTable4`] and the runs of pairs serve the networks that do not store: those
+//! of many pairs of few links each, whose chunks would be mostly padding.
 //!
 //! The last group, which may be partial, is computed as a whole one, on copies of its lanes padded
 //! with zeros, and only its lanes are stored (`Pull::groups_avx2_as`): its padding lanes' terms
@@ -108,8 +110,8 @@ impl Pull {
     }
 
     /// [`Pull::store_forces`]: the forces of the LNL links of `ends` (chunks of
-    /// [`Pull::stored`]) into `forces`, eight a chunk, from the pairs `pc`, with the network's
-    /// one pair of curves.
+    /// [`Pull::stored`], links of one pair of curves, `pair`: a position in `Pull::pairs`, or
+    /// [`LONGS`]` + i` for long pair `i`) into `forces`, eight a chunk, from the pairs `pc`.
     ///
     /// # Safety
     /// The CPU has AVX2.
@@ -117,18 +119,17 @@ impl Pull {
     pub(super) unsafe fn store_forces_avx2(
         &self,
         pc: &[[f64; 2]],
+        pair: u32,
         ends: &[[[u32; LANES]; 2]],
         forces: &mut [f64],
     ) {
-        match &self.curves {
-            Some(pair) => pair.visit(StoreForces4 { pc, ends, forces }),
-            None => {
-                // (no `curves` and no table: one long pair, `Pull::new`)
-                assert!(self.longs.len() == 1 && !self.several);
+        match pair {
+            LONGS.. => {
                 // SAFETY: this function is compiled with AVX2.
-                let c = unsafe { Long4::new(&self.longs[0]) };
+                let c = unsafe { Long4::new(&self.longs[(pair - LONGS) as usize]) };
                 store_forces(&c, pc, ends, forces);
             }
+            _ => self.pairs[pair as usize].visit(StoreForces4 { pc, ends, forces }),
         }
     }
 
