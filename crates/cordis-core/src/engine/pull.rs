@@ -447,11 +447,8 @@ impl Pull {
             stored: Vec::new(),
             stored_runs: Vec::new(),
         };
-        // (the LNL links' numbers in `stored`, in the order the rows first name them, so that a
-        // group's forces are near each other, with each link's pair; `u32::MAX` until named;
-        // renumbered pair by pair after the rows)
-        // (not when the pairs have so few links each that padding their chunks would evaluate
-        // more than twice as many)
+        // (the forces stored, but not when the pairs have so few links each that padding their
+        // chunks would evaluate more than twice as many)
         let mut per_pair: HashMap<u32, usize> = HashMap::new();
         for l in (0..k.nl).filter(|&l| law[l] == Law::Lnl) {
             *per_pair.entry(lnl_pair(l)).or_default() += 1;
@@ -459,6 +456,9 @@ impl Pull {
         let links: usize = per_pair.values().sum();
         let padded: usize = per_pair.values().map(|n| LANES * n.div_ceil(LANES)).sum();
         let store = isa == Isa::Avx2 && links > 0 && padded <= 2 * links;
+        // (the LNL links' numbers in `stored`, in the order the rows first name them, so that a
+        // group's forces are near each other, with each link's pair; `u32::MAX` until named;
+        // renumbered pair by pair after the rows)
         let mut stored_at = vec![u32::MAX; if store { k.nl } else { 0 }];
         let mut stored_ends: Vec<([u32; 2], u32)> = Vec::new();
         let forces_at = 16 * k.nm as u64;
