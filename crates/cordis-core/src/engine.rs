@@ -5440,6 +5440,17 @@ mod tests {
             // (the rows computing the terms only some rows have the other way, every row or
             // only those that have one: a BUT network's BUTs, an LNL network's springs)
             let mut other_way = pulled.clone();
+            // (which rows evaluate one pair, which several: where the AVX2 step stores the LNL
+            // forces, none, so those of the step built not to store them)
+            let rows_of_pairs = |pull: &pull::Pull| {
+                if pull.stores_forces() {
+                    assert_eq!(pull.rows_of_pairs(), (0, 0), "network {seed}");
+                    let unstored = pull::Pull::unstored(&pulled.k);
+                    unstored.expect("a pull step").rows_of_pairs()
+                } else {
+                    pull.rows_of_pairs()
+                }
+            };
             if let Some(pull) = other_way.k.pull.as_mut().filter(|_| kind >= 1) {
                 // (every link LNL, or every link but the FROs to the SOL, of one `Z`)
                 assert_eq!(
@@ -5450,7 +5461,7 @@ mod tests {
                 // (four pairs of curves, in rows of one pair and rows of several)
                 if kind == 5 || kind == 8 {
                     assert_eq!(pull.curve_pairs(), 4, "network {seed}");
-                    let (one, several) = pull.rows_of_pairs();
+                    let (one, several) = rows_of_pairs(pull);
                     assert!(one > 0 && (n < 500 || several > 0), "network {seed}");
                 }
                 // (pairs of curves of more points, evaluated as they are: one alone, with one
@@ -5463,7 +5474,7 @@ mod tests {
                     assert_eq!(pull.curve_pairs(), pairs, "network {seed}");
                 }
                 if kind == 15 && n >= 500 {
-                    let (one, several) = pull.rows_of_pairs();
+                    let (one, several) = rows_of_pairs(pull);
                     assert!(one > 0 && several > 0, "network {seed}");
                 }
                 // (curves drawn point by point, padded to 8 or 16 points: one pair, or two)
@@ -5976,8 +5987,9 @@ mod tests {
     /// are in runs of one pair and some are not, and the outputs, positions and link forces
     /// have the bits of the same engine reading every pair from the table, of the compact step,
     /// and of three threads, at every block. So too when one half's pair has 40 points (its runs
-    /// and its parts of rows evaluate it as it is, `Pull::longs`). So too, on a CPU with AVX2
-    /// but not AVX-512, the AVX2 pull step (`avx2::CurveTable4`).
+    /// and its parts of rows evaluate it as it is, `Pull::longs`). So too, on a CPU with AVX2,
+    /// the AVX2 pull step (`avx2::CurveTable4`) built not to store the LNL forces; the step it
+    /// takes otherwise stores them, builds no runs, and gives the same bits.
     #[test]
     fn the_pull_step_sums_runs_of_one_pair_with_the_curves_in_registers() {
         let mut isas = Vec::new();
@@ -5993,9 +6005,20 @@ mod tests {
             .flat_map(|a| [(31, 500, false), (32, 1203, false), (33, 700, true)].map(|t| (a, t)))
         {
             let net = lnl_halves(seed, n, long);
+            // (on AVX2: the engine as built, which stores the forces, and one that does not)
+            let mut stored = None;
             let mut pulled = match avx2 {
                 #[cfg(target_arch = "x86_64")]
-                true => Engine::new_for(&net, Simd::Avx2),
+                true => {
+                    let built = Engine::new_for(&net, Simd::Avx2);
+                    let pull = built.k.pull.as_ref().expect("a pull step");
+                    assert!(pull.stores_forces(), "network {seed}");
+                    assert_eq!(pull.groups_of_one_pair(), (0, 0), "network {seed}");
+                    stored = Some(built);
+                    let mut k = Kernel::new_for(&net, Simd::Avx2);
+                    k.pull = pull::Pull::unstored(&k).map(Box::new);
+                    Engine::with_kernel(k)
+                }
                 _ => Engine::new(&net),
             };
             let pull = pulled.k.pull.as_ref().expect("a pull step");
@@ -6035,16 +6058,21 @@ mod tests {
             let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             let mut moved = false;
             for (i, block) in [1, 7, 300, 64, 1024].into_iter().enumerate() {
-                let mut out = [(); 4].map(|()| vec![0.0; block * ch]);
-                let [a, b, c, d] = &mut out;
+                let mut out = [(); 5].map(|()| vec![0.0; block * ch]);
+                let [a, b, c, d, e] = &mut out;
                 assert!(pulled.process(block, a).is_ok());
                 assert!(from_table.process(block, b).is_ok());
                 assert!(compact.process_observed(block, c, &mut |_| {}).is_ok());
                 assert!(threads.process(block, d).is_ok());
-                for (j, o) in [&*b, &*c, &*d].into_iter().enumerate() {
+                if let Some(stored) = stored.as_mut() {
+                    assert!(stored.process(block, e).is_ok());
+                } else {
+                    e.copy_from_slice(a);
+                }
+                for (j, o) in [&*b, &*c, &*d, &*e].into_iter().enumerate() {
                     assert_eq!(bits(a), bits(o), "network {seed}, block {i}, engine {j}");
                 }
-                for e in [&from_table, &compact, &threads] {
+                for e in [&from_table, &compact, &threads].into_iter().chain(&stored) {
                     for m in (0..net.materials.len() as u32).map(MatId) {
                         assert_eq!(e.position(m).to_bits(), pulled.position(m).to_bits());
                     }

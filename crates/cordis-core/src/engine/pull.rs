@@ -309,6 +309,13 @@ impl Pull {
     /// count ([`ExactPair::padded`]), the pairs do not mix in most rows, and there are at least
     /// [`PULL_MIN`] MAS.
     pub(super) fn new(k: &Kernel) -> Option<Pull> {
+        Pull::build(k, true)
+    }
+
+    /// [`Pull::new`], with the LNL forces stored only if `may_store` ([`Pull::stored`]): the
+    /// tests take the AVX2 step's other ways of evaluating curves (the table, runs of one pair)
+    /// on networks that would store them.
+    fn build(k: &Kernel, may_store: bool) -> Option<Pull> {
         let isa = match k.simd {
             #[cfg(target_arch = "x86_64")]
             Simd::Avx512(cpu) => Isa::Avx512(cpu),
@@ -370,8 +377,20 @@ impl Pull {
                 (pairs.len() - 1) as u32
             });
         }
+        let lnl_pair = |l: usize| pair_of[k.lnl_of[l] as usize];
+        // (the forces stored, but not when the pairs have so few links each that padding their
+        // chunks would evaluate more than twice as many)
+        let mut per_pair: HashMap<u32, usize> = HashMap::new();
+        for l in (0..k.nl).filter(|&l| law[l] == Law::Lnl) {
+            *per_pair.entry(lnl_pair(l)).or_default() += 1;
+        }
+        let links: usize = per_pair.values().sum();
+        let padded: usize = per_pair.values().map(|n| LANES * n.div_ceil(LANES)).sum();
+        let store = may_store && isa == Isa::Avx2 && links > 0 && padded <= 2 * links;
         // Several pairs evaluate as one shape: the smallest that has the most points of any,
-        // each padded to it (the long pairs are evaluated as they are).
+        // each padded to it (the long pairs are evaluated as they are). Only rows that evaluate
+        // pairs read the table: with the forces stored, it stays empty (but the pairs pad to
+        // the shape all the same, so that whether a network takes the step does not change).
         let (a, b) = (pairs.iter().map(ExactPair::counts))
             .fold((0, 0), |(a, b), (x, y)| (a.max(x), b.max(y)));
         let (a, b) = ExactPair::shape(a, b)?;
@@ -384,7 +403,10 @@ impl Pull {
             [one] if !several => Some(*one),
             [first, ..] => {
                 for pair in &pairs {
-                    pair.padded(a, b)?.write(&mut table);
+                    let padded = pair.padded(a, b)?;
+                    if !store {
+                        padded.write(&mut table);
+                    }
                 }
                 Some(first.padded(a, b)?)
             }
@@ -392,7 +414,6 @@ impl Pull {
         if table.len() >= LONGS as usize {
             return None; // (`row_curves` are 31-bit positions, and none a long pair's)
         }
-        let lnl_pair = |l: usize| pair_of[k.lnl_of[l] as usize];
         // The terms of mobile material `s`, in summing order: `Ok((other end, link, end 1))`, with
         // whether `s` is end 1, then `Err(input)`.
         let terms = |s: usize| {
@@ -447,15 +468,6 @@ impl Pull {
             stored: Vec::new(),
             stored_runs: Vec::new(),
         };
-        // (the forces stored, but not when the pairs have so few links each that padding their
-        // chunks would evaluate more than twice as many)
-        let mut per_pair: HashMap<u32, usize> = HashMap::new();
-        for l in (0..k.nl).filter(|&l| law[l] == Law::Lnl) {
-            *per_pair.entry(lnl_pair(l)).or_default() += 1;
-        }
-        let links: usize = per_pair.values().sum();
-        let padded: usize = per_pair.values().map(|n| LANES * n.div_ceil(LANES)).sum();
-        let store = isa == Isa::Avx2 && links > 0 && padded <= 2 * links;
         // (the LNL links' numbers in `stored`, in the order the rows first name them, so that a
         // group's forces are near each other, with each link's pair; `u32::MAX` until named;
         // renumbered pair by pair after the rows)
@@ -471,7 +483,8 @@ impl Pull {
             let (kk, zz) = first.map_or((0.0, 0.0), |l| (k.lk[l], k.lz[l]));
             p.params.push([[kk; LANES], [zz; LANES]]);
         }
-        // (with several pairs: the parts of the rows, and the rows with an LNL lane)
+        // (with several pairs and the forces not stored: the parts of the rows, and the rows with
+        // an LNL lane)
         let mut evaluations = [0, 0];
         for g in 0..k.n_mas.div_ceil(LANES) {
             let lanes = LANES * g..(LANES * (g + 1)).min(k.n_mas);
@@ -529,7 +542,7 @@ impl Pull {
                     }
                 }
                 p.rows.push(row);
-                if p.several {
+                if p.several && !store {
                     evaluations[0] += parts.len();
                     evaluations[1] += usize::from(!parts.is_empty());
                     let at = |pair: u32| match pair {
@@ -594,8 +607,8 @@ impl Pull {
         }
         // (each part of a row evaluates its pair on the whole row: two pairs in every row ran at
         // 1.4x the gather step on a random network, docs/BENCHMARKS.md, twenty-eighth session)
-        // (with the forces stored, no row evaluates a pair)
-        if p.parts.len() >= PARTS as usize || (!store && 2 * evaluations[0] > 5 * evaluations[1]) {
+        // (with the forces stored, no row evaluates a pair: the parts are empty)
+        if p.parts.len() >= PARTS as usize || 2 * evaluations[0] > 5 * evaluations[1] {
             return None;
         }
         // (with LNL links, whether the rows compute their springs and dampers, and BUTs, which
@@ -605,7 +618,7 @@ impl Pull {
         } else {
             but && Pull::computes_full_rows(&p.rows, |r| r.b != 0)
         };
-        if p.several {
+        if p.several && !store {
             p.runs = runs(&p.bounds, &p.row_curves);
         }
         p.recorded = k.recorded_links()?;
@@ -735,6 +748,12 @@ impl Pull {
     #[cfg(test)]
     pub(super) fn toggle_full_rows(&mut self) {
         self.full_rows = !self.full_rows;
+    }
+
+    /// [`Pull::new`] with the LNL forces not stored ([`Pull::build`]).
+    #[cfg(test)]
+    pub(super) fn unstored(k: &Kernel) -> Option<Pull> {
+        Pull::build(k, false)
     }
 
     /// How many distinct pairs of LNL curves the network has.
