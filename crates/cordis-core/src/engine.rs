@@ -1421,7 +1421,9 @@ impl State {
 /// forty-eighth sessions, on Emerald Rapids). On Zen 5, since the pull step builds its curves'
 /// vectors with AVX-512 (forty-ninth session), the instrument renders 5 % faster with it and random
 /// networks of 16 to 255 MAS 1.4x to 2.6x; on Zen 4, since a CEL's terms are summed in runs of one
-/// kind (fiftieth), the instrument 1.15x faster; kept until measured again where it was set.
+/// kind (fiftieth), the instrument 1.15x faster; kept until measured again where it was set. On
+/// Zen 3 with AVX2 alone, the instrument 1.10x slower with the AVX2 pull step, which stores its
+/// springs' forces, than with the compact step (fifty-ninth).
 const JUMPS_PULL_MIN: usize = 256;
 
 /// Whether an LNL curve of `net` jumps at its first point ([`JUMPS_PULL_MIN`]).

@@ -65,7 +65,7 @@
 //! where its MAS is end 2, the value its two evaluations gave (the same bits). On threads, each
 //! thread stores the forces of its share of the links, and a barrier orders them before the rows
 //! ([`PullJob`]). No row evaluates a pair then, so the table, the parts and the runs of several
-//! pairs are not read, and networks of pairs mixed in most rows take the step too. Measured in
+//! pairs are not built, and networks of pairs mixed in most rows take the step too. Measured in
 //! docs/BENCHMARKS.md, fifty-seventh session: 1.2x on a random network of 3-point curves, 1.65x
 //! with 33 points; fifty-eighth: two pairs mixed link by link 1.77x. (Not yet on AVX-512.)
 //!
@@ -262,17 +262,18 @@ pub(super) struct Pull {
     /// Whether the network has RES or FRO links, whose rows the AVX2 step computes with the
     /// masks of their springs and dampers (`avx2::products`; the AVX-512 step always masks).
     masked: bool,
-    /// With several pairs: each pair of at most 16 points padded to the most points of any
-    /// ([`ExactPair::write`]), one after another; else empty.
+    /// With several pairs and the forces not stored ([`Pull::stored`]): each pair of at most 16
+    /// points padded to the most points of any ([`ExactPair::write`]), one after another; else
+    /// empty.
     table: Vec<f64>,
-    /// With several pairs, the LNL curves of each row ([`RowCurves`]): [`NO_LNL`] when the row
+    /// With several pairs and the forces not stored, the LNL curves of each row ([`RowCurves`]): [`NO_LNL`] when the row
     /// has no LNL lane; the position in `table` of the pair of all its LNL lanes when they share
     /// one; else [`PARTS`] and the position in `parts` of the row's *parts*. Else empty.
     row_curves: Vec<u32>,
     /// Runs of parts, each part the position of a pair in `table` and the row's LNL lanes of that
     /// pair, a run ended by lanes `0`.
     parts: Vec<(u32, u8)>,
-    /// With several pairs, the groups in runs, each `(end, pair)`: the groups from the previous
+    /// With several pairs and the forces not stored, the groups in runs, each `(end, pair)`: the groups from the previous
     /// run's end (or 0) to `end`, whose LNL lanes all have the pair at `pair` in `table`, summed
     /// as in a network of that one pair ([`Curves`], the curves in registers), or (`None`) whose
     /// rows read their pairs from the table ([`CurveTable`]). Else empty. A group with no LNL
