@@ -266,18 +266,20 @@ pub(super) struct Pull {
     /// points padded to the most points of any ([`ExactPair::write`]), one after another; else
     /// empty.
     table: Vec<f64>,
-    /// With several pairs and the forces not stored, the LNL curves of each row ([`RowCurves`]): [`NO_LNL`] when the row
-    /// has no LNL lane; the position in `table` of the pair of all its LNL lanes when they share
-    /// one; else [`PARTS`] and the position in `parts` of the row's *parts*. Else empty.
+    /// With several pairs and the forces not stored, the LNL curves of each row
+    /// ([`RowCurves`]): [`NO_LNL`] when the row has no LNL lane; the position in `table` of the
+    /// pair of all its LNL lanes when they share one; else [`PARTS`] and the position in `parts`
+    /// of the row's *parts*. Else empty.
     row_curves: Vec<u32>,
     /// Runs of parts, each part the position of a pair in `table` and the row's LNL lanes of that
     /// pair, a run ended by lanes `0`.
     parts: Vec<(u32, u8)>,
-    /// With several pairs and the forces not stored, the groups in runs, each `(end, pair)`: the groups from the previous
-    /// run's end (or 0) to `end`, whose LNL lanes all have the pair at `pair` in `table`, summed
-    /// as in a network of that one pair ([`Curves`], the curves in registers), or (`None`) whose
-    /// rows read their pairs from the table ([`CurveTable`]). Else empty. A group with no LNL
-    /// lane joins the run before it; a run of one pair has at least [`MIN_RUN`] groups.
+    /// With several pairs and the forces not stored, the groups in runs, each `(end, pair)`: the
+    /// groups from the previous run's end (or 0) to `end`, whose LNL lanes all have the pair at
+    /// `pair` in `table`, summed as in a network of that one pair ([`Curves`], the curves in
+    /// registers), or (`None`) whose rows read their pairs from the table ([`CurveTable`]). Else
+    /// empty. A group with no LNL lane joins the run before it; a run of one pair has at least
+    /// [`MIN_RUN`] groups.
     runs: Vec<(u32, Option<u32>)>,
     /// Whether every row computes the kind of terms that only some rows may have: the BUTs of a
     /// BUT network ([`sum_but`]), the springs, dampers and BUTs of an LNL network ([`sum_lnl`]). If
