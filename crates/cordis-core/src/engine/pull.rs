@@ -506,7 +506,8 @@ impl Pull {
                 };
                 let mut params = [[0.0; LANES]; 2];
                 let mut thresholds = [0.0; LANES];
-                // (the row's LNL lanes of each pair, in the order of their first lane)
+                // (the row's LNL lanes of each pair, in the order of their first lane; only
+                // read with several pairs and the forces not stored)
                 let mut parts: Vec<(u32, u8)> = Vec::new();
                 for (i, s) in lanes.clone().enumerate() {
                     let mut other = s as u32; // padding: the lane's own MAS, masked off
@@ -523,7 +524,7 @@ impl Pull {
                         if law[l] == Law::But {
                             thresholds[i] = threshold(l, end1);
                         }
-                        if law[l] == Law::Lnl {
+                        if law[l] == Law::Lnl && p.several && !store {
                             let pair = lnl_pair(l);
                             match parts.iter_mut().find(|(p, _)| *p == pair) {
                                 Some((_, lanes)) => *lanes |= 1 << i,
