@@ -6093,6 +6093,30 @@ mod tests {
         }
     }
 
+    /// The AVX2 store pass reads its chunks' pairs unchecked (`Pull::stored_within`): it steps
+    /// from as many pairs as the network has MAS and SOL, and refuses fewer, whose reads the
+    /// offsets would overrun.
+    #[test]
+    fn the_store_pass_refuses_fewer_pairs_than_its_offsets_need() {
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2") {
+            let net = lnl_halves(31, 500, false);
+            let engine = Engine::new_for(&net, Simd::Avx2);
+            let pull = engine.k.pull.as_ref().expect("a pull step");
+            assert!(pull.stores_forces());
+            let (nm, chunks) = (engine.k.nm, pull.stored_share(0, 1));
+            let mut forces = vec![f64::NAN; LANES * chunks.len()];
+            let pairs = vec![[0.5, 0.0]; nm];
+            pull.store_forces(&pairs, chunks.clone(), &mut forces);
+            // (every chunk's eight forces written: the buffer was NaN)
+            assert!(forces.iter().all(|f| f.is_finite()), "{forces:?}");
+            let short = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                pull.store_forces(&pairs[..nm - 1], chunks, &mut forces);
+            }));
+            assert!(short.is_err());
+        }
+    }
+
     /// A blow-up in the pull step is reported at the step and module of the other steps.
     #[test]
     fn a_blow_up_in_the_pull_step_names_the_same_step_and_module() {
