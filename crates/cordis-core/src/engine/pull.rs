@@ -297,8 +297,8 @@ pub(super) struct Pull {
     /// byte offsets of the pairs of its ends 1 and 2, eight links a chunk, the links of one pair
     /// of curves after another ([`Pull::stored_runs`], each pair's last chunk padded with links
     /// from pair 0 to pair 0), link `i` of the list storing its force into `f64` number `2 nm +
-    /// i` of the pair buffer, which its lanes' rows read. Else empty. Every offset is below `16
-    /// nm` ([`Pull::stored_within`]).
+    /// i` of the pair buffer, which its lanes' rows read. Else empty. Every offset is `16 j` for
+    /// a pair `j < nm` ([`Pull::stored_within`]).
     stored: Vec<[[u32; LANES]; 2]>,
     /// `nm`, the pairs the offsets of [`Pull::stored`] lie within (asserted in
     /// [`Pull::build`]): [`Pull::store_forces`] asserts its pairs have as many, once a call, and
@@ -649,7 +649,8 @@ impl Pull {
                 let mut chunk = [[0; LANES]; 2];
                 for (i, &j) in ends.iter().enumerate() {
                     let [a, b] = stored_ends[j].0;
-                    // (`stored_within`: unchecked in the step)
+                    // (`stored_within`: unchecked in the step; `a` and `b` are `16` times a
+                    // slot)
                     assert!(a < 16 * k.nm as u32 && b < 16 * k.nm as u32);
                     [chunk[0][i], chunk[1][i]] = [a, b];
                     renumbered[j] = (LANES * p.stored.len() + i) as u32;
@@ -907,8 +908,8 @@ impl Pull {
     /// buffer on: exactly `8 chunks.len()` of them).
     pub(super) fn store_forces(&self, pc: &[[f64; 2]], chunks: Range<usize>, forces: &mut [f64]) {
         assert!(forces.len() == LANES * chunks.len());
-        // (each offset of `stored` is below `16 stored_within`, asserted in `build`, so below `16
-        // pc.len()`: the promise `store_forces_avx2` asks for)
+        // (each offset of `stored` is `16 j` for a pair `j < stored_within`, asserted in `build`,
+        // so a pair of `pc`: the promise `store_forces_avx2` asks for)
         assert!(pc.len() >= self.stored_within);
         let mut start = 0;
         // (each run of one pair's chunks within `chunks`, with that pair's curves)
@@ -926,7 +927,7 @@ impl Pull {
                 assert!(self.isa == Isa::Avx2);
                 // SAFETY: `Pull::new` made `Isa::Avx2` (asserted) from `Simd::Avx2`, which
                 // `Simd::detect` returns (and a test asks for) only when the CPU has AVX2; every
-                // offset of `ends` (chunks of `stored`) is below `16 pc.len()` (asserted above).
+                // offset of `ends` (chunks of `stored`) is that of a pair of `pc` (above).
                 unsafe { self.store_forces_avx2(pc, pair, ends, forces) }
             }
             #[cfg(not(target_arch = "x86_64"))]

@@ -114,7 +114,8 @@ impl Pull {
     /// [`LONGS`]` + i` for long pair `i`) into `forces`, eight a chunk, from the pairs `pc`.
     ///
     /// # Safety
-    /// The CPU has AVX2, and every offset of `ends` is below `16 pc.len()`.
+    /// The CPU has AVX2, and every offset of `ends` is that of a pair of `pc`: a multiple of 16
+    /// below `16 pc.len()`.
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn store_forces_avx2(
         &self,
@@ -446,8 +447,9 @@ impl Forces4 for Stored4 {
 /// and `c`'s bits of `LK(d) + LZ(v)`, the reference's force.
 ///
 /// # Safety
-/// Every offset of `ends` is below `16 pc.len()` (the pairs' reads are not checked: checked
-/// chunk by chunk, this pass ran 1.41x the instructions and 0.95x the speed, sixtieth session).
+/// Every offset of `ends` is that of a pair of `pc`, a multiple of 16 below `16 pc.len()`, so
+/// that each 16-byte load reads one pair (the reads are not checked: checked chunk by chunk, this
+/// pass ran 1.41x the instructions and 0.95x the speed, sixtieth session).
 #[target_feature(enable = "avx2")]
 unsafe fn store_forces<C: Forces4>(
     c: &C,
@@ -474,7 +476,7 @@ unsafe fn store_forces<C: Forces4>(
 
 /// [`store_forces`] with a pair of at most 16 points, at its point counts.
 ///
-/// Invariant: every offset of `ends` is below `16 pc.len()` (its one maker,
+/// Invariant: every offset of `ends` is that of a pair of `pc` (its one maker,
 /// `Pull::store_forces_avx2`, has the promise from its caller).
 struct StoreForces4<'a> {
     pc: &'a [[f64; 2]],
