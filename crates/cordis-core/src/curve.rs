@@ -212,6 +212,15 @@ impl<const N: usize> ExactCurve<N> {
         ExactCurve::<M>::fit(&self.xs, &self.ys, &self.slopes)
     }
 
+    /// The curve as one of `M` points: itself where `M` is `N` (a copy, nothing computed again),
+    /// else [`ExactCurve::padded`].
+    pub(crate) fn at_points<const M: usize>(&self) -> Option<ExactCurve<M>> {
+        match (self as &dyn std::any::Any).downcast_ref::<ExactCurve<M>>() {
+            Some(same) => Some(*same),
+            None => self.padded(),
+        }
+    }
+
     /// Appends the curve's [`ExactCurve::LEN`] numbers to `out`, as [`ExactCurve::read`] takes
     /// them back.
     pub(crate) fn write(&self, out: &mut Vec<f64>) {
@@ -270,16 +279,8 @@ impl<const N: usize> ExactCurve<N> {
         // features, and `map` of 16 was not inlined, so that each broadcast was a call; 4 % of
         // the time of a string of 13-point curves, which builds its curves for each piece)
         let guess = WideCurve::<V, N>::LOOKS_UP && self.scale > 0.0;
-        let mut w = WideCurve {
-            xs: [V::zero(); N],
-            ys: [V::zero(); N],
-            slopes: [V::zero(); N],
-            table: [[V::zero(); 2]; 3],
-            grid: [[V::zero(); 2]; 2],
-            guess,
-            scale: V::splat(self.scale),
-            top: V::splat(N.saturating_sub(1) as f64),
-        };
+        let (scale, top) = (V::splat(self.scale), V::splat(N.saturating_sub(1) as f64));
+        let mut w = WideCurve::zeros(guess, scale, top);
         for j in 0..N {
             w.xs[j] = V::splat(self.xs[j]);
             w.ys[j] = V::splat(self.ys[j]);
@@ -294,6 +295,43 @@ impl<const N: usize> ExactCurve<N> {
         }
         w
     }
+
+    /// This curve and `other` in alternate lanes of `V`, `[self, other, self, other, ...]`, for
+    /// [`WideCurve::eval`] of abscissas that alternate the same way: each lane evaluates its own
+    /// curve, to the bits [`ExactCurve::wide`] gives it, since every operation of `eval` is
+    /// lane by lane. Only for a curve that selects its segments (not [`WideCurve::LOOKS_UP`],
+    /// which would look both curves up in one table; refused at compile time).
+    ///
+    /// # Safety
+    /// The CPU must have `V`'s instructions (see [`Vector`]).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn wide_alternating<V: Vector>(
+        &self,
+        other: &ExactCurve<N>,
+    ) -> WideCurve<V, N> {
+        const { assert!(!WideCurve::<V, N>::LOOKS_UP) };
+        let mut w = WideCurve::zeros(false, V::zero(), V::zero());
+        for j in 0..N {
+            w.xs[j] = alternate(self.xs[j], other.xs[j]);
+            w.ys[j] = alternate(self.ys[j], other.ys[j]);
+            w.slopes[j] = alternate(self.slopes[j], other.slopes[j]);
+        }
+        w
+    }
+}
+
+/// `[a, b, a, b, ...]` in the lanes of `V` (a function, not a closure, so that it has the
+/// caller's target features).
+///
+/// # Safety
+/// The CPU must have `V`'s instructions (see [`Vector`]).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn alternate<V: Vector>(a: f64, b: f64) -> V {
+    let ab = [a, b, a, b, a, b, a, b];
+    // SAFETY: the caller's promise; `V::N <= 8` numbers of `ab`.
+    unsafe { V::load(ab.as_ptr()) }
 }
 
 /// An [`ExactCurve`] for several abscissas at a time (eight with AVX-512, four with AVX2):
@@ -320,6 +358,24 @@ pub(crate) struct WideCurve<V: Vector, const N: usize> {
 
 #[cfg(target_arch = "x86_64")]
 impl<V: Vector, const N: usize> WideCurve<V, N> {
+    /// A curve of zeros but for `guess`, `scale` and `top`, whose numbers its maker then sets.
+    ///
+    /// # Safety
+    /// The CPU must have `V`'s instructions (see [`Vector`]).
+    #[inline(always)]
+    unsafe fn zeros(guess: bool, scale: V, top: V) -> Self {
+        WideCurve {
+            xs: [V::zero(); N],
+            ys: [V::zero(); N],
+            slopes: [V::zero(); N],
+            table: [[V::zero(); 2]; 3],
+            grid: [[V::zero(); 2]; 2],
+            guess,
+            scale,
+            top,
+        }
+    }
+
     /// The number at index `i` (each lane's) of a table of `N` numbers in one vector or two
     /// (a function, not a closure, so that it has the caller's target features).
     ///

@@ -6117,6 +6117,103 @@ mod tests {
         }
     }
 
+    /// The AVX2 store pass gives each LNL link the reference's force, `LK(d) + LZ(v)` of
+    /// `Curve::eval`, bit for bit, for pairs of every shape it evaluates in alternate lanes of
+    /// one curve (`avx2::store_alternating`: equal counts, and counts of 2 to 4, padded) and of
+    /// some it evaluates as two (`avx2::Pair4`): curves with jumps inside, at the first point
+    /// (the sticking spring's) and none; abscissas at the curves' points, beyond their ends,
+    /// zeros of both signs and between; every link of each chunk, padding lanes included.
+    #[test]
+    fn the_store_pass_gives_every_shape_the_reference_force() {
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2") {
+            // (a curve of `n` points over ±w: a hardening spring, with a jump inside from 5
+            // points, and the sticking spring's 4 points, jumps at the first and the last)
+            let curve = |n: usize, w: f64| -> Curve {
+                if n == 0 {
+                    return Curve::zero();
+                }
+                if n == 1 {
+                    let s = w / 2.0;
+                    return Curve::new(&[(-s, 0.0), (-s, -0.05 * s), (s, 0.05 * s), (s, 0.0)])
+                        .unwrap();
+                }
+                let mut points: Vec<(f64, f64)> = (0..n)
+                    .map(|i| {
+                        let x = -w + 2.0 * w * i as f64 / (n - 1) as f64;
+                        (x, 0.05 * x + 3e3 * x * x * x + 1e-7 * (i % 2) as f64)
+                    })
+                    .collect();
+                if n >= 5 {
+                    points[2].0 = points[1].0;
+                }
+                Curve::new(&points).unwrap()
+            };
+            // (point counts, 1 for the sticking spring's 4; and the shapes they take)
+            let shapes = [
+                ((2, 2), (2, 2)),
+                ((2, 3), (2, 3)),
+                ((2, 4), (2, 4)),
+                ((3, 2), (3, 2)),
+                ((3, 3), (3, 3)),
+                ((3, 4), (3, 4)),
+                ((4, 2), (4, 2)),
+                ((4, 3), (4, 3)),
+                ((4, 4), (4, 4)),
+                ((1, 3), (4, 3)),
+                ((1, 4), (4, 4)),
+                ((6, 7), (8, 8)),
+                ((13, 9), (16, 16)),
+                ((0, 0), (0, 0)),
+                ((7, 3), (8, 4)),
+                ((11, 2), (16, 2)),
+                ((4, 0), (4, 0)),
+            ];
+            for (s, ((a, b), shape)) in shapes.into_iter().enumerate() {
+                let (lk, lz) = (curve(a, 0.01), curve(b, 0.002));
+                let pair = Interaction::Lnl {
+                    lk: lk.clone(),
+                    lz: lz.clone(),
+                };
+                let what = format!("points {a} and {b}");
+                // (300 MAS: a sticking spring takes the pull step from 256, `JUMPS_PULL_MIN`)
+                let net = lnl_ref_springs(70 + s as u64, 300, 0, &pair, 1);
+                let engine = Engine::new_for(&net, Simd::Avx2);
+                let pull = (engine.k.pull.as_ref()).unwrap_or_else(|| panic!("{what}: no pull"));
+                assert!(pull.stores_forces(), "{what}");
+                let stored = pull.stored_chunks();
+                assert_eq!(pull.pair_counts(), [shape], "{what}");
+                // (each pair's `x` and `v` drawn from the curves' abscissas, beyond them, zeros
+                // and between, so that `d` and `v` hit each curve's points exactly: the other
+                // end's are often a zero)
+                let mut known = vec![0.0, -0.0, 0.03, -0.03, 1e-3, 7e-3];
+                known.extend(lk.points().chain(lz.points()).map(|(x, _)| x));
+                let mut r = 0x9e37_79b9_7f4a_7c15_u64 ^ s as u64;
+                let mut draw = || {
+                    r = r.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+                    let u = (r >> 11) as f64 / (1u64 << 53) as f64;
+                    if r >> 62 == 0 {
+                        0.024 * (2.0 * u - 1.0)
+                    } else {
+                        known[(r >> 40) as usize % known.len()]
+                    }
+                };
+                let pairs: Vec<[f64; 2]> = (0..engine.k.nm).map(|_| [draw(), draw()]).collect();
+                let chunks = pull.stored_share(0, 1);
+                let mut forces = vec![f64::NAN; LANES * chunks.len()];
+                pull.store_forces(&pairs, chunks, &mut forces);
+                for (c, [ea, eb]) in stored.iter().enumerate() {
+                    for l in 0..LANES {
+                        let (p, q) = (pairs[ea[l] as usize / 16], pairs[eb[l] as usize / 16]);
+                        let want = lk.eval(p[0] - q[0]) + lz.eval(p[1] - q[1]);
+                        let got = forces[LANES * c + l];
+                        assert_eq!(got.to_bits(), want.to_bits(), "{what}: chunk {c}, lane {l}");
+                    }
+                }
+            }
+        }
+    }
+
     /// A blow-up in the pull step is reported at the step and module of the other steps.
     #[test]
     fn a_blow_up_in_the_pull_step_names_the_same_step_and_module() {

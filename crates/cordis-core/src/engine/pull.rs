@@ -769,6 +769,19 @@ impl Pull {
         Pull::build(k, false)
     }
 
+    /// The chunks of stored LNL forces ([`Pull::stored`]: the byte offsets of each link's ends'
+    /// pairs).
+    #[cfg(test)]
+    pub(super) fn stored_chunks(&self) -> &[[[u32; LANES]; 2]] {
+        &self.stored
+    }
+
+    /// The point counts of the pairs of curves of at most 16 points ([`Pull::pairs`]), in order.
+    #[cfg(test)]
+    pub(super) fn pair_counts(&self) -> Vec<(usize, usize)> {
+        self.pairs.iter().map(ExactPair::counts).collect()
+    }
+
     /// How many distinct pairs of LNL curves the network has.
     #[cfg(test)]
     pub(super) fn curve_pairs(&self) -> usize {

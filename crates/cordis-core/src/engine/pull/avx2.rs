@@ -501,7 +501,22 @@ impl StoreForces4<'_> {
     /// The CPU has AVX2, and the offsets keep the type's invariant.
     #[target_feature(enable = "avx2")]
     unsafe fn avx2<const A: usize, const B: usize>(self, k: &ExactCurve<A>, z: &ExactCurve<B>) {
-        // SAFETY: the caller's promise (`V4`, and the offsets).
+        // SAFETY (both): the caller's promise (`V4`, and the offsets).
+        // (the curve of fewer points padded to the other's count, the same bits,
+        // `ExactCurve::padded`, which is `None` only for the zero curve, that `alternates`
+        // excludes where the counts differ; no closure, which would not have this function's
+        // target features)
+        if alternates(A, B) && A >= B {
+            if let Some(z) = z.at_points::<A>() {
+                let c = unsafe { k.wide_alternating::<V4>(&z) };
+                return unsafe { store_alternating(&c, self.pc, self.ends, self.forces) };
+            }
+        } else if alternates(A, B) {
+            if let Some(k) = k.at_points::<B>() {
+                let c = unsafe { k.wide_alternating::<V4>(z) };
+                return unsafe { store_alternating(&c, self.pc, self.ends, self.forces) };
+            }
+        }
         unsafe {
             let c = Pair4 {
                 k: k.wide::<V4>(),
@@ -509,6 +524,72 @@ impl StoreForces4<'_> {
             };
             store_forces(&c, self.pc, self.ends, self.forces);
         }
+    }
+}
+
+/// Whether [`StoreForces4`] evaluates a pair of `a` and `b` points as one curve of alternate lanes
+/// ([`store_alternating`]): the same count, or counts of 2 to 4 (the fewer padded, at most two
+/// selects more in each of its lanes).
+const fn alternates(a: usize, b: usize) -> bool {
+    a == b || (a >= 2 && b >= 2 && a <= 4 && b <= 4)
+}
+
+/// [`store_forces`] for a pair of curves in alternate lanes of one, `c` (the stiffness curve in
+/// lanes 0 and 2, the viscous one in 1 and 3, [`ExactCurve::wide_alternating`]): each link's
+/// `[d, v]` is its end 1's pair less its end 2's, `[x1 - x2, v1 - v2]`, the reference's operands
+/// side by side, two links a vector, so that its `c` is `[LK(d), LZ(v)]` for each; the forces are
+/// their sums, the reference's `LK(d) + LZ(v)`. With the curves' constants in one set of vectors,
+/// not two, the pass keeps them in registers (two pairs of 3 points: 8 vectors, not 16).
+///
+/// # Safety
+/// As [`store_forces`].
+#[target_feature(enable = "avx2")]
+unsafe fn store_alternating<const N: usize>(
+    c: &WideCurve<V4, N>,
+    pc: &[[f64; 2]],
+    ends: &[[[u32; LANES]; 2]],
+    forces: &mut [f64],
+) {
+    assert!(forces.len() == LANES * ends.len());
+    let base = pc.as_ptr().cast::<u8>();
+    for ([a, b], out) in ends.iter().zip(forces.chunks_exact_mut(LANES)) {
+        for h in 0..2 {
+            let i = HALF * h;
+            // (links `i` and `i + 2` in one vector, `i + 1` and `i + 3` in the other, so that
+            // the low and high halves of the two interleave to the four in order)
+            // SAFETY: every offset is that of a pair of `pc` (the caller's promise), and the
+            // CPU has AVX2 (this function is compiled with it); four of the eight `f64` of `out`.
+            unsafe {
+                let e0 = c.eval(V4(links(base, a, b, i, i + 2))).0;
+                let e1 = c.eval(V4(links(base, a, b, i + 1, i + 3))).0;
+                let f = _mm256_add_pd(_mm256_unpacklo_pd(e0, e1), _mm256_unpackhi_pd(e0, e1));
+                _mm256_storeu_pd(out.as_mut_ptr().add(i), f);
+            }
+        }
+    }
+}
+
+/// `[d, v]` of links `i` and `j` of a chunk whose ends' pairs are at byte offsets `a` and `b`
+/// of the buffer at `base`: each link's end 1 pair less its end 2 pair, `[x1 - x2, v1 - v2]`.
+///
+/// # Safety
+/// The CPU has AVX2, and the 16 bytes at `base + a[i]`, `base + a[j]`, `base + b[i]` and `base +
+/// b[j]` are within the buffer.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn links(
+    base: *const u8,
+    a: &[u32; LANES],
+    b: &[u32; LANES],
+    i: usize,
+    j: usize,
+) -> __m256d {
+    // SAFETY: the caller's promise.
+    unsafe {
+        let p = |o: u32| _mm_loadu_pd(base.add(o as usize).cast::<f64>());
+        let two =
+            |lo: __m128d, hi: __m128d| _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(lo), hi);
+        _mm256_sub_pd(two(p(a[i]), p(a[j])), two(p(b[i]), p(b[j])))
     }
 }
 
