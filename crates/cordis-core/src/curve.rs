@@ -221,6 +221,43 @@ impl<const N: usize> ExactCurve<N> {
         }
     }
 
+    /// The first `j` of `1..N - 1` whose abscissa is the last one's (a point of a padding, or
+    /// the first of a jump at the end; the abscissas are sorted), `N - 1` if none is (0 for the
+    /// zero curve): the selects of [`WideCurve::eval`] from `cut` on may be skipped, since a
+    /// point of the last abscissa is kept only where `x[N-1] <= x`, where the value is `y[N-1]`
+    /// whatever was kept ([`ExactCurve::trimmed`]).
+    pub(crate) fn cut(&self) -> usize {
+        let last = self.xs.last().copied().unwrap_or(0.0);
+        (1..N.saturating_sub(1))
+            .find(|&j| self.xs[j] >= last)
+            .unwrap_or(N.saturating_sub(1))
+    }
+
+    /// The curve without the points that [`ExactCurve::cut`] finds may be skipped: points
+    /// `0..cut` (their slopes too) and the last, `cut + 1` points, padded to `M`
+    /// ([`ExactCurve::padded`]; itself, copied, where nothing is skipped and `M` is `N`); `None`
+    /// for an `M` below `cut + 1`, and for the zero curve. The same value everywhere, bit for
+    /// bit, in [`ExactCurve::eval`] and [`WideCurve::eval`]: below `x[N-1]` both select among
+    /// points `0..cut` alone (the points from `cut` on are not `<= x`), with the same numbers,
+    /// and at or above it both give `y[N-1]`. A curve of 7 points padded to 8 is one of 7 again,
+    /// 5 selects in place of 6; of 13 padded to 16, 11 in place of 14 (with AVX2 each select is
+    /// a compare and three blends a lane); the sticking spring, of 4 points, one of 3.
+    pub(crate) fn trimmed<const M: usize>(&self) -> Option<ExactCurve<M>> {
+        let cut = self.cut();
+        if N < 2 || M < cut + 1 {
+            return None;
+        }
+        if cut + 1 == N {
+            return self.at_points::<M>();
+        }
+        // (no allocation: the store pass trims its pair at each call)
+        let keep = |a: &[f64; N]| -> [f64; N] {
+            std::array::from_fn(|j| if j < cut { a[j] } else { a[N - 1] })
+        };
+        let (xs, ys, slopes) = (keep(&self.xs), keep(&self.ys), keep(&self.slopes));
+        ExactCurve::<M>::fit(&xs[..=cut], &ys[..=cut], &slopes[..=cut])
+    }
+
     /// Appends the curve's [`ExactCurve::LEN`] numbers to `out`, as [`ExactCurve::read`] takes
     /// them back.
     pub(crate) fn write(&self, out: &mut Vec<f64>) {
@@ -1595,6 +1632,76 @@ mod tests {
             }
         }
         got
+    }
+
+    /// A curve without the points its padding added, or the first of a jump at its end
+    /// ([`ExactCurve::trimmed`]), gives the bits of the curve, one at a time and wide, at the
+    /// points, next to them, at zeros, infinities and NaNs; it is trimmed only to its own count
+    /// (`cut + 1`), which for the bench's springs and the sticking spring is their own points'
+    /// but for a jump at the end.
+    #[test]
+    fn trimmed_curves_evaluate_to_the_same_bits() {
+        /// `e` trimmed: its count, and its bits and the curve's at `xs`.
+        fn trimmed<const N: usize>(e: &ExactCurve<N>, c: &Curve, xs: &[f64]) -> usize {
+            let m = e.cut() + 1;
+            assert!(e.trimmed::<2>().is_some() == (m == 2) && e.trimmed::<N>().is_some());
+            let scalar: Vec<u64> = xs.iter().map(|&x| c.eval(x).to_bits()).collect();
+            let (got, want) = wide_bits(&e.trimmed::<16>().unwrap(), xs, true);
+            assert!(
+                want == scalar && got.iter().all(|g| *g == scalar),
+                "{c:?} as 16"
+            );
+            macro_rules! at {
+                ($($m:literal)*) => {
+                    match m {
+                        $($m => wide_bits(&e.trimmed::<$m>().unwrap(), xs, true),)*
+                        _ => unreachable!("{m} points"),
+                    }
+                };
+            }
+            let (got, want) = at!(2 3 4 5 6 7 8 9 10 11 12 13 14 15 16);
+            assert_eq!(want, scalar, "{c:?} trimmed to {m}");
+            for got in got {
+                assert_eq!(got, scalar, "{c:?} trimmed to {m}, wide");
+            }
+            m
+        }
+        let curves = curves_to_widen();
+        let xs = probes(779, 300, curves.iter().map(|c| &c.0[..]));
+        let mut shed = 0;
+        for (pts, _) in curves.iter().filter(|(p, widens)| *widens && p.len() >= 2) {
+            let c = Curve::new(pts).unwrap();
+            let n = pts.len();
+            // (each curve at its own count where the engine has it, and padded to 8 and 16)
+            let mut counts = vec![];
+            if n <= 4 {
+                counts.push(match n {
+                    2 => trimmed(&ExactCurve::<2>::fitted(&c).unwrap(), &c, &xs),
+                    3 => trimmed(&ExactCurve::<3>::fitted(&c).unwrap(), &c, &xs),
+                    _ => trimmed(&ExactCurve::<4>::fitted(&c).unwrap(), &c, &xs),
+                });
+            }
+            if n <= 8 {
+                counts.push(trimmed(&ExactCurve::<8>::fitted(&c).unwrap(), &c, &xs));
+            }
+            counts.push(trimmed(&ExactCurve::<16>::fitted(&c).unwrap(), &c, &xs));
+            // (the same count whatever the padding: the points before the last abscissa, and it)
+            let last = pts[n - 1].0;
+            let own = 1 + pts.iter().position(|p| p.0 == last).unwrap().max(1);
+            assert!(
+                counts.iter().all(|&m| m == own),
+                "{pts:?}: {counts:?}, not {own}"
+            );
+            shed += usize::from(own < n);
+        }
+        // (five of the curves that widen end in a jump: of 3, 4 (two, one the sticking
+        // spring), 8 and 12 points)
+        assert_eq!(shed, 5);
+        let line = |n: usize| -> Vec<(f64, f64)> { (0..n).map(|i| (i as f64, 0.5)).collect() };
+        for n in [3, 7, 13] {
+            let c = Curve::new(&line(n)).unwrap();
+            assert_eq!(trimmed(&ExactCurve::<16>::fitted(&c).unwrap(), &c, &xs), n);
+        }
     }
 
     /// A curve padded to more points ([`ExactCurve::padded`]) gives the bits of the curve, one

@@ -501,11 +501,33 @@ impl StoreForces4<'_> {
     /// The CPU has AVX2, and the offsets keep the type's invariant.
     #[target_feature(enable = "avx2")]
     unsafe fn avx2<const A: usize, const B: usize>(self, k: &ExactCurve<A>, z: &ExactCurve<B>) {
-        // SAFETY (both): the caller's promise (`V4`, and the offsets).
+        // SAFETY (every block below): the caller's promise (`V4`, and the offsets).
         // (the curve of fewer points padded to the other's count, the same bits,
         // `ExactCurve::padded`, which is `None` only for the zero curve, that `alternates`
         // excludes where the counts differ; no closure, which would not have this function's
         // target features)
+        if (2..=4).contains(&A) && (2..=4).contains(&B) {
+            // (both curves trimmed, `ExactCurve::trimmed`, at the count of the one with more
+            // points once trimmed: the sticking spring and a 3-point viscous curve are a pair
+            // of 3, not of 4; `trimmed` is `None` only below a curve's own count)
+            let m = k.cut().max(z.cut()) + 1;
+            macro_rules! at {
+                ($($m:literal)*) => {
+                    match m {
+                        $($m => {
+                            if let (Some(k), Some(z)) = (k.trimmed::<$m>(), z.trimmed::<$m>()) {
+                                let c = unsafe { k.wide_alternating::<V4>(&z) };
+                                return unsafe {
+                                    store_alternating(&c, self.pc, self.ends, self.forces)
+                                };
+                            }
+                        })*
+                        _ => {}
+                    }
+                };
+            }
+            at!(2 3 4);
+        }
         if alternates(A, B) && A >= B {
             if let Some(z) = z.at_points::<A>() {
                 let c = unsafe { k.wide_alternating::<V4>(&z) };
@@ -517,14 +539,86 @@ impl StoreForces4<'_> {
                 return unsafe { store_alternating(&c, self.pc, self.ends, self.forces) };
             }
         }
-        unsafe {
-            let c = Pair4 {
-                k: k.wide::<V4>(),
-                z: z.wide::<V4>(),
-            };
-            store_forces(&c, self.pc, self.ends, self.forces);
+        if unsafe { store_trimmed(k, z, self.pc, self.ends, self.forces) } {
+            return;
         }
+        unsafe { store_pair(k, z, self.pc, self.ends, self.forces) }
     }
+}
+
+/// [`store_forces`] of the pair `k` and `z` as they are, [`Pair4`].
+///
+/// # Safety
+/// As [`store_forces`].
+#[target_feature(enable = "avx2")]
+unsafe fn store_pair<const A: usize, const B: usize>(
+    k: &ExactCurve<A>,
+    z: &ExactCurve<B>,
+    pc: &[[f64; 2]],
+    ends: &[[[u32; LANES]; 2]],
+    forces: &mut [f64],
+) {
+    // SAFETY: the caller's promise (`V4`, and the offsets).
+    unsafe {
+        let c = Pair4 {
+            k: k.wide::<V4>(),
+            z: z.wide::<V4>(),
+        };
+        store_forces(&c, pc, ends, forces);
+    }
+}
+
+/// [`store_pair`] of the pair `k` and `z` without the points their padding added
+/// ([`ExactCurve::trimmed`]: the same bits), where the stiffness curve has 5 to 16 points and
+/// the viscous one at most 4, and one of them sheds a point: false (nothing stored) for other
+/// pairs. Each select shed is a compare and three blends of each vector of links: the bench's
+/// `drawn` pair, 7 and 3 points padded to 8 and 4, makes 6 selects, not 8. (A viscous curve
+/// of many points next to a short stiffness curve is rarer, and left as it is: the shapes of
+/// `Pair4` this makes are 48 already.)
+///
+/// # Safety
+/// As [`store_forces`].
+#[target_feature(enable = "avx2")]
+unsafe fn store_trimmed<const A: usize, const B: usize>(
+    k: &ExactCurve<A>,
+    z: &ExactCurve<B>,
+    pc: &[[f64; 2]],
+    ends: &[[[u32; LANES]; 2]],
+    forces: &mut [f64],
+) -> bool {
+    if A <= 4 || B > 4 || (k.cut() + 1 == A && z.cut() + 1 == B) {
+        return false;
+    }
+    // (the viscous curve at each count it may have, `None` but for the one it sheds to; the
+    // zero curve has no cut, `B` being 0)
+    let z0 = z.at_points::<0>().filter(|_| B == 0);
+    let z2 = if B == 2 {
+        z.at_points::<2>()
+    } else {
+        z.trimmed::<2>()
+    };
+    let z3 = z.trimmed::<3>();
+    let z4 = z.trimmed::<4>();
+    // SAFETY (every `store_pair`): the caller's promise.
+    macro_rules! at {
+        ($($m:literal)*) => {
+            match k.cut() + 1 {
+                $($m => {
+                    let Some(k) = k.trimmed::<$m>() else { return false };
+                    match (z0, z2, z3, z4) {
+                        (Some(z), ..) => unsafe { store_pair(&k, &z, pc, ends, forces) },
+                        (_, Some(z), ..) => unsafe { store_pair(&k, &z, pc, ends, forces) },
+                        (_, _, Some(z), _) => unsafe { store_pair(&k, &z, pc, ends, forces) },
+                        (.., Some(z)) => unsafe { store_pair(&k, &z, pc, ends, forces) },
+                        _ => return false,
+                    }
+                    true
+                })*
+                _ => false,
+            }
+        };
+    }
+    at!(5 6 7 8 9 10 11 12 13 14 15 16)
 }
 
 /// Whether [`StoreForces4`] evaluates a pair of `a` and `b` points as one curve of alternate lanes
