@@ -502,14 +502,14 @@ impl StoreForces4<'_> {
     #[target_feature(enable = "avx2")]
     unsafe fn avx2<const A: usize, const B: usize>(self, k: &ExactCurve<A>, z: &ExactCurve<B>) {
         // SAFETY (every block below): the caller's promise (`V4`, and the offsets).
-        // (the curve of fewer points padded to the other's count, the same bits,
-        // `ExactCurve::padded`, which is `None` only for the zero curve, that `alternates`
-        // excludes where the counts differ; no closure, which would not have this function's
-        // target features)
+        // (a pair of 2 to 4 points each, or of one count, as one curve of alternate lanes,
+        // `store_alternating`; others as two curves, their padding shed where it may be,
+        // `store_trimmed`; no closure, which would not have this function's target features)
         if (2..=4).contains(&A) && (2..=4).contains(&B) {
             // (both curves trimmed, `ExactCurve::trimmed`, at the count of the one with more
-            // points once trimmed: the sticking spring and a 3-point viscous curve are a pair
-            // of 3, not of 4; `trimmed` is `None` only below a curve's own count)
+            // points once trimmed, the fewer padded, at most two selects more in its lanes: the
+            // sticking spring and a 3-point viscous curve are a pair of 3, not of 4; `trimmed`
+            // is `None` only below a curve's own count)
             let m = k.cut().max(z.cut()) + 1;
             macro_rules! at {
                 ($($m:literal)*) => {
@@ -528,14 +528,10 @@ impl StoreForces4<'_> {
             }
             at!(2 3 4);
         }
-        if alternates(A, B) && A >= B {
+        if A == B {
+            // (the zero pair, `(8, 8)`, `(16, 16)`: `at_points` copies the viscous curve)
             if let Some(z) = z.at_points::<A>() {
                 let c = unsafe { k.wide_alternating::<V4>(&z) };
-                return unsafe { store_alternating(&c, self.pc, self.ends, self.forces) };
-            }
-        } else if alternates(A, B) {
-            if let Some(k) = k.at_points::<B>() {
-                let c = unsafe { k.wide_alternating::<V4>(z) };
                 return unsafe { store_alternating(&c, self.pc, self.ends, self.forces) };
             }
         }
@@ -586,7 +582,8 @@ unsafe fn store_trimmed<const A: usize, const B: usize>(
     ends: &[[[u32; LANES]; 2]],
     forces: &mut [f64],
 ) -> bool {
-    if A <= 4 || B > 4 || (k.cut() + 1 == A && z.cut() + 1 == B) {
+    // (the zero curve's `cut` is 0: it sheds nothing)
+    if A <= 4 || B > 4 || (k.cut() + 1 == A && z.cut() + 1 == B.max(1)) {
         return false;
     }
     // (the viscous curve at each count it may have, `None` but for the one it sheds to; the
@@ -619,13 +616,6 @@ unsafe fn store_trimmed<const A: usize, const B: usize>(
         };
     }
     at!(5 6 7 8 9 10 11 12 13 14 15 16)
-}
-
-/// Whether [`StoreForces4`] evaluates a pair of `a` and `b` points as one curve of alternate lanes
-/// ([`store_alternating`]): the same count, or counts of 2 to 4 (the fewer padded, at most two
-/// selects more in each of its lanes).
-const fn alternates(a: usize, b: usize) -> bool {
-    a == b || (a >= 2 && b >= 2 && a <= 4 && b <= 4)
 }
 
 /// [`store_forces`] for a pair of curves in alternate lanes of one, `c` (the stiffness curve in
