@@ -586,14 +586,10 @@ unsafe fn store_trimmed<const A: usize, const B: usize>(
     if A <= 4 || B > 4 || (k.cut() + 1 == A && z.cut() + 1 == B.max(1)) {
         return false;
     }
-    // (the viscous curve at each count it may have, `None` but for the one it sheds to; the
-    // zero curve has no cut, `B` being 0)
-    let z0 = z.at_points::<0>().filter(|_| B == 0);
-    let z2 = if B == 2 {
-        z.at_points::<2>()
-    } else {
-        z.trimmed::<2>()
-    };
+    // (the viscous curve at each count it may have, `None` below the one it sheds to; the
+    // zero curve only at 0, `at_points` refusing to pad it or to drop points)
+    let z0 = z.at_points::<0>();
+    let z2 = z.trimmed::<2>();
     let z3 = z.trimmed::<3>();
     let z4 = z.trimmed::<4>();
     // SAFETY (every `store_pair`): the caller's promise.
