@@ -39,10 +39,10 @@
 //!   `random-lnl-struck N`: the LNL network and a hammer as `random-struck`'s;
 //!   `random-but-lnl N`: BUT links of threshold 0 and LNL links, a link's law chosen by its end
 //!   2, so mixed in nearly every group's rows.
-//! - `lnl-drawn N`, `lnl-fine N`, `lnl-long N` (default 1000), `random-lnl-drawn N`,
-//!   `random-lnl-fine N`, `random-lnl-long N`: the `lnl` string and the `random-lnl` network with
-//!   a stiffness curve of 7, 13 or 33 points (a hardening spring drawn point by point, drawn
-//!   finely, sampled from its formula); `random-lnl-long-halves N`: `random-lnl-halves` with the
+//! - `lnl-drawn N`, `lnl-fine N`, `lnl-full N`, `lnl-long N` (default 1000), `random-lnl-drawn
+//!   N`, `random-lnl-fine N`, `random-lnl-full N`, `random-lnl-long N`: the `lnl` string and the
+//!   `random-lnl` network with a stiffness curve of 7, 13, 16 or 33 points (a hardening spring
+//!   drawn point by point, drawn finely, drawn at 16 points, sampled from its formula); `random-lnl-long-halves N`: `random-lnl-halves` with the
 //!   first half's pair `random-lnl-long`'s (a pair of 33 points and one of 3, by region).
 //! - `lnl-stick N` (default 1000), `random-lnl-stick N`: the `lnl` string and the `random-lnl`
 //!   network with the papers' sticking spring as the stiffness curve (4 points, two of them
@@ -107,6 +107,8 @@ enum Law {
     LnlDrawn,
     /// LNL links of curves drawn finely ([`fine`]): 13 points, and `Lnl`'s viscous curve
     LnlFine,
+    /// LNL links of a 16-point curve ([`full`]): no point of padding, and `Lnl`'s viscous curve
+    LnlFull,
     /// LNL links of curves sampled ([`sampled`]): 33 points, and `Lnl`'s viscous curve
     LnlLong,
     /// LNL links of the sticking spring ([`sticking`]): 4 points, and `Lnl`'s viscous curve
@@ -131,6 +133,7 @@ impl Law {
             Law::Lnl => lnl(K),
             Law::LnlDrawn => drawn(K),
             Law::LnlFine => fine(K),
+            Law::LnlFull => full(K),
             Law::LnlLong | Law::LnlLongHalves => sampled(K),
             Law::LnlStick => sticking(K),
         }
@@ -169,6 +172,13 @@ fn fine(k: f64) -> Interaction {
     let at = [0.0, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0];
     let mut ts: Vec<f64> = at.iter().rev().map(|t| -t).collect();
     ts.extend(&at[1..]);
+    hardening(k, &ts)
+}
+
+/// An LNL link of a 16-point stiffness curve, [`drawn`]'s spring drawn every L/4 from -2L to
+/// 7L/4: a curve the engine keeps at 16 points, no point of padding to skip.
+fn full(k: f64) -> Interaction {
+    let ts: Vec<f64> = (-8..8).map(|i| f64::from(i) / 4.0).collect();
     hardening(k, &ts)
 }
 
@@ -293,6 +303,7 @@ fn string(n: usize, law: Law) -> Model {
         Law::Lnl => format!("string_lnl_N{n}"),
         Law::LnlDrawn => format!("string_lnl_drawn_N{n}"),
         Law::LnlFine => format!("string_lnl_fine_N{n}"),
+        Law::LnlFull => format!("string_lnl_full_N{n}"),
         Law::LnlLong => format!("string_lnl_long_N{n}"),
         Law::LnlStick => format!("string_lnl_stick_N{n}"),
         _ => unreachable!("a string's links are of one law"),
@@ -571,6 +582,7 @@ fn random(n: usize, law: Law) -> Model {
             Law::ButLnl => format!("random_but_lnl_N{n}"),
             Law::LnlDrawn => format!("random_lnl_drawn_N{n}"),
             Law::LnlFine => format!("random_lnl_fine_N{n}"),
+            Law::LnlFull => format!("random_lnl_full_N{n}"),
             Law::LnlLong => format!("random_lnl_long_N{n}"),
             Law::LnlStick => format!("random_lnl_stick_N{n}"),
             Law::LnlLongHalves => format!("random_lnl_long_halves_N{n}"),
@@ -2195,7 +2207,7 @@ fn usage() -> ! {
          [random [N]] [random-but [N]] [random-lnl [N]] [random-struck [N]] \
          [random-lnl-mixed [N]] [random-lnl-halves [N]] [random-lnl-struck [N]] \
          [random-but-lnl [N]] [lnl-drawn [N]] [random-lnl-drawn [N]] [lnl-fine [N]] \
-         [random-lnl-fine [N]] [lnl-long [N]] [random-lnl-long [N]] \
+         [random-lnl-fine [N]] [lnl-full [N]] [random-lnl-full [N]] [lnl-long [N]] [random-lnl-long [N]] \
          [random-lnl-long-halves [N]] [lnl-stick [N]] [random-lnl-stick [N]]...\n(no model: every \
          default model)\n   \
          or: cargo bench -p cordis-core --bench engine -- threads [N [T [KIND...]]]   (1 vs T \
@@ -2225,6 +2237,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "lnl" => Some(Law::Lnl),
             "lnl-drawn" => Some(Law::LnlDrawn),
             "lnl-fine" => Some(Law::LnlFine),
+            "lnl-full" => Some(Law::LnlFull),
             "lnl-long" => Some(Law::LnlLong),
             "lnl-stick" => Some(Law::LnlStick),
             "membrane"
@@ -2243,6 +2256,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             | "random-but-lnl"
             | "random-lnl-drawn"
             | "random-lnl-fine"
+            | "random-lnl-full"
             | "random-lnl-long"
             | "random-lnl-long-halves"
             | "random-lnl-stick"
@@ -2260,6 +2274,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             "random-but-lnl" => Law::ButLnl,
             "random-lnl-drawn" => Law::LnlDrawn,
             "random-lnl-fine" => Law::LnlFine,
+            "random-lnl-full" => Law::LnlFull,
             "random-lnl-long" => Law::LnlLong,
             "random-lnl-long-halves" => Law::LnlLongHalves,
             "random-lnl-stick" => Law::LnlStick,
@@ -2311,7 +2326,7 @@ fn parse_args(args: &[String]) -> Vec<Spec> {
             None if random_law != Law::Ref => specs.push(Spec::Random(10000, random_law)),
             None if matches!(
                 law,
-                Some(Law::LnlDrawn | Law::LnlFine | Law::LnlLong | Law::LnlStick)
+                Some(Law::LnlDrawn | Law::LnlFine | Law::LnlFull | Law::LnlLong | Law::LnlStick)
             ) =>
             {
                 specs.push(Spec::String(1000, law.expect("a law")))

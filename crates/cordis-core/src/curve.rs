@@ -63,6 +63,25 @@ fn first_segment(xs: &[f64], ys: &[f64], slopes: &[f64]) -> (f64, f64) {
     }
 }
 
+/// The first `j` of `1..n - 1` whose abscissa is the last one's, `n - 1` if none is, of the
+/// sorted abscissas `xs` (`n` of them; 0 for none): [`ExactCurve::cut`].
+fn cut_of(xs: &[f64]) -> usize {
+    let n = xs.len();
+    let last = xs.last().copied().unwrap_or(0.0);
+    (1..n.saturating_sub(1))
+        .find(|&j| xs[j] >= last)
+        .unwrap_or(n.saturating_sub(1))
+}
+
+/// How many points [`ExactCurve::kept`] keeps of `c`: `cut + 1` ([`ExactCurve::cut`]), or `c`'s
+/// own count for fewer than 2 points.
+pub(crate) fn kept_len(c: &Curve) -> usize {
+    match c.n() {
+        n @ 0..=1 => n,
+        _ => cut_of(c.xs()) + 1,
+    }
+}
+
 /// The point count of the curves that may have a grid ([`ExactCurve::GRIDS`]).
 const GRID_POINTS: usize = 16;
 
@@ -227,10 +246,7 @@ impl<const N: usize> ExactCurve<N> {
     /// point of the last abscissa is kept only where `x[N-1] <= x`, where the value is `y[N-1]`
     /// whatever was kept ([`ExactCurve::trimmed`]).
     pub(crate) fn cut(&self) -> usize {
-        let last = self.xs.last().copied().unwrap_or(0.0);
-        (1..N.saturating_sub(1))
-            .find(|&j| self.xs[j] >= last)
-            .unwrap_or(N.saturating_sub(1))
+        cut_of(&self.xs)
     }
 
     /// The curve without the points that [`ExactCurve::cut`] finds may be skipped: points
@@ -256,6 +272,24 @@ impl<const N: usize> ExactCurve<N> {
         };
         let (xs, ys, slopes) = (keep(&self.xs), keep(&self.ys), keep(&self.slopes));
         ExactCurve::<M>::fit(&xs[..=cut], &ys[..=cut], &slopes[..=cut])
+    }
+
+    /// The curve `c` as [`ExactCurve::trimmed`] keeps it once fitted: its points `0..cut` and
+    /// its last ([`kept_len`] of them), padded to `N`, the same bits; `None` where `N` is
+    /// fewer, or where one of them is the zero curve and not the other. The engine keeps its
+    /// LNL pairs so (`ExactPair::new`): the sticking spring of 4 points is one of 3 on every
+    /// path, and a 5-point curve ending in a jump one of 4, not 8.
+    pub(crate) fn kept(c: &Curve) -> Option<Self> {
+        let n = c.n();
+        if n < 2 {
+            return Self::fitted(c);
+        }
+        let cut = cut_of(c.xs());
+        let keep =
+            |a: &[f64]| -> Vec<f64> { a[..cut].iter().chain([&a[n - 1]]).copied().collect() };
+        // (the slope at `cut` is unused: `fit` reads `slopes[i]` for `i + 1 < cut + 1` alone)
+        let slopes: Vec<f64> = c.slopes()[..cut].iter().chain([&0.0]).copied().collect();
+        Self::fit(&keep(c.xs()), &keep(c.ys()), &slopes)
     }
 
     /// Appends the curve's [`ExactCurve::LEN`] numbers to `out`, as [`ExactCurve::read`] takes
@@ -318,6 +352,7 @@ impl<const N: usize> ExactCurve<N> {
         let guess = WideCurve::<V, N>::LOOKS_UP && self.scale > 0.0;
         let (scale, top) = (V::splat(self.scale), V::splat(N.saturating_sub(1) as f64));
         let mut w = WideCurve::zeros(guess, scale, top);
+        w.cut = self.cut();
         for j in 0..N {
             w.xs[j] = V::splat(self.xs[j]);
             w.ys[j] = V::splat(self.ys[j]);
@@ -391,6 +426,8 @@ pub(crate) struct WideCurve<V: Vector, const N: usize> {
     /// The grid's buckets a unit and `N - 1`, in every lane
     scale: V,
     top: V,
+    /// [`ExactCurve::cut`]: [`WideCurve::eval_cut`] makes the selects `1..cut`
+    cut: usize,
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -410,6 +447,7 @@ impl<V: Vector, const N: usize> WideCurve<V, N> {
             guess,
             scale,
             top,
+            cut: N.saturating_sub(1),
         }
     }
 
@@ -471,6 +509,28 @@ impl<V: Vector, const N: usize> WideCurve<V, N> {
     /// The CPU must have `V`'s instructions (see [`Vector`]).
     #[inline(always)]
     pub(crate) unsafe fn eval(&self, x: V) -> V {
+        self.eval_as::<false>(x)
+    }
+
+    /// [`WideCurve::eval`], but for a curve of 8 points or more that selects its segments, the
+    /// selects from `N / 2` on stop at [`ExactCurve::cut`], read at run time (those from it on
+    /// may be skipped: [`ExactCurve::trimmed`], the same bits; a curve the engine keeps at 8 or
+    /// 16 points, [`ExactCurve::kept`], has more than `N / 2`, so the first `N / 2 - 1` are
+    /// written out and the rest is a loop). For the grid step's strings, whose pair of curves
+    /// is compiled at its padded counts: a 7-point curve at 8 makes 5 selects, not 6, a
+    /// 13-point one at 16 11, not 14 (on Zen 3, the strings of the bench's `lnl-drawn` and
+    /// `lnl-fine` 1.16x faster, a 16-point one with nothing to skip 0.97x; fully a loop, the
+    /// curves of 3 and 4 points ran 0.88x; docs/BENCHMARKS.md, sixty-third session).
+    ///
+    /// # Safety
+    /// The CPU must have `V`'s instructions (see [`Vector`]).
+    #[inline(always)]
+    pub(crate) unsafe fn eval_cut(&self, x: V) -> V {
+        self.eval_as::<true>(x)
+    }
+
+    #[inline(always)]
+    unsafe fn eval_as<const CUT: bool>(&self, x: V) -> V {
         if N < 2 {
             return V::zero(); // (`N` is 0: `ExactCurve::new` refuses 1)
         }
@@ -497,12 +557,23 @@ impl<V: Vector, const N: usize> WideCurve<V, N> {
             (pick(xs, i), pick(ys, i), pick(slopes, i))
         } else {
             let (mut x0, mut y, mut slope) = (self.xs[0], self.ys[0], self.slopes[0]);
-            for j in 1..N - 1 {
-                let past = self.xs[j].le(x);
-                x0 = x0.select(past, self.xs[j]);
-                y = y.select(past, self.ys[j]);
-                slope = slope.select(past, self.slopes[j]);
+            let (lo, hi) = if CUT && N >= 8 {
+                (N / 2, self.cut.clamp(N / 2, N - 1))
+            } else {
+                (N - 1, N - 1)
+            };
+            macro_rules! selects {
+                ($js:expr) => {
+                    for j in $js {
+                        let past = self.xs[j].le(x);
+                        x0 = x0.select(past, self.xs[j]);
+                        y = y.select(past, self.ys[j]);
+                        slope = slope.select(past, self.slopes[j]);
+                    }
+                };
             }
+            selects!(1..lo);
+            selects!(lo..hi);
             (x0, y, slope)
         };
         let along = y.add(x.sub(x0).mul(slope));
@@ -1641,10 +1712,30 @@ mod tests {
     /// but for a jump at the end.
     #[test]
     fn trimmed_curves_evaluate_to_the_same_bits() {
-        /// `e` trimmed: its count, and its bits and the curve's at `xs`.
+        /// `e` trimmed: its count, and its bits and the curve's at `xs`; and the curve kept
+        /// ([`ExactCurve::kept`]) as `e` trimmed, at its count and at 16.
         fn trimmed<const N: usize>(e: &ExactCurve<N>, c: &Curve, xs: &[f64]) -> usize {
             let m = e.cut() + 1;
             assert!(e.trimmed::<2>().is_some() == (m == 2) && e.trimmed::<N>().is_some());
+            assert_eq!(kept_len(c), m, "{c:?}");
+            let sixteen = ExactCurve::<16>::kept(c).unwrap();
+            assert!(
+                sixteen.same_bits(&e.trimmed::<16>().unwrap()),
+                "{c:?} kept as 16"
+            );
+            macro_rules! kept {
+                ($($m:literal)*) => {
+                    match m {
+                        $($m => {
+                            let kept = ExactCurve::<$m>::kept(c).unwrap();
+                            assert!(kept.same_bits(&e.trimmed::<$m>().unwrap()), "{c:?} kept");
+                            assert!(ExactCurve::<{ $m - 1 }>::kept(c).is_none(), "{c:?}");
+                        })*
+                        _ => unreachable!("{m} points"),
+                    }
+                };
+            }
+            kept!(2 3 4 5 6 7 8 9 10 11 12 13 14 15 16);
             let scalar: Vec<u64> = xs.iter().map(|&x| c.eval(x).to_bits()).collect();
             let (got, want) = wide_bits(&e.trimmed::<16>().unwrap(), xs, true);
             assert!(
@@ -1778,7 +1869,8 @@ mod tests {
         }
     }
 
-    /// The bits of `e` at `xs`: `WideCurve::eval`'s in each width the CPU has (AVX-512, AVX2;
+    /// The bits of `e` at `xs`: `WideCurve::eval`'s and `eval_cut`'s in each width the CPU has
+    /// (AVX-512, AVX2;
     /// none elsewhere; with AVX-512, of `e` searched too where it has a grid) and `eval`'s;
     /// checks that `e.widens()` is `widens`.
     fn wide_bits<const N: usize>(
@@ -1793,9 +1885,10 @@ mod tests {
         #[cfg(target_arch = "x86_64")]
         {
             use crate::wide::{V4, V8};
-            /// `WideCurve::eval` of `e` at `xs`, `V::N` at a time (the last lanes `0.0`).
+            /// `WideCurve::eval` (or, `CUT`, `WideCurve::eval_cut`) of `e` at `xs`, `V::N` at a
+            /// time (the last lanes `0.0`).
             #[inline(always)]
-            unsafe fn eval_as<V: Vector, const N: usize>(
+            unsafe fn eval_as<V: Vector, const N: usize, const CUT: bool>(
                 e: &ExactCurve<N>,
                 xs: &[f64],
             ) -> Vec<u64> {
@@ -1803,30 +1896,38 @@ mod tests {
                 let mut got = Vec::new();
                 for chunk in xs.chunks(V::N) {
                     let mut lanes = [0.0; 8];
-                    w.eval(V::load_part(chunk)).store(lanes.as_mut_ptr());
+                    let x = V::load_part(chunk);
+                    let y = if CUT { w.eval_cut(x) } else { w.eval(x) };
+                    y.store(lanes.as_mut_ptr());
                     got.extend(lanes[..chunk.len()].iter().map(|v| v.to_bits()));
                 }
                 got
             }
             #[target_feature(enable = "avx512f")]
-            unsafe fn eval8<const N: usize>(e: &ExactCurve<N>, xs: &[f64]) -> Vec<u64> {
-                eval_as::<V8, N>(e, xs)
+            unsafe fn eval8<const N: usize>(e: &ExactCurve<N>, xs: &[f64]) -> [Vec<u64>; 2] {
+                [
+                    eval_as::<V8, N, false>(e, xs),
+                    eval_as::<V8, N, true>(e, xs),
+                ]
             }
             #[target_feature(enable = "avx2")]
-            unsafe fn eval4<const N: usize>(e: &ExactCurve<N>, xs: &[f64]) -> Vec<u64> {
-                eval_as::<V4, N>(e, xs)
+            unsafe fn eval4<const N: usize>(e: &ExactCurve<N>, xs: &[f64]) -> [Vec<u64>; 2] {
+                [
+                    eval_as::<V4, N, false>(e, xs),
+                    eval_as::<V4, N, true>(e, xs),
+                ]
             }
             if std::is_x86_feature_detected!("avx512f") {
                 // SAFETY: the CPU has AVX-512F.
-                got.push(unsafe { eval8(e, xs) });
+                got.extend(unsafe { eval8(e, xs) });
                 if e.scale > 0.0 {
                     // SAFETY: as above.
-                    got.push(unsafe { eval8(&e.searched(), xs) });
+                    got.extend(unsafe { eval8(&e.searched(), xs) });
                 }
             }
             if std::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU has AVX2.
-                got.push(unsafe { eval4(e, xs) });
+                got.extend(unsafe { eval4(e, xs) });
             }
         }
         (got, want)

@@ -45,7 +45,7 @@ use std::cell::Cell;
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use crate::curve::{ExactCurve, LongCurve};
+use crate::curve::{kept_len, ExactCurve, LongCurve};
 use crate::lanes::{Avx512, LANES};
 use crate::lines::Lines;
 use crate::parallel::{Poisoned, Pool, SharedBuf, SpinBarrier, Task};
@@ -294,16 +294,16 @@ macro_rules! exact_pairs {
         }
 
         impl ExactPair {
-            /// The pair of curves `k` and `z`, each padded ([`ExactCurve::fitted`]) to the
-            /// smallest pair of point counts that holds them ([`ExactPair::shape`]: a curve of
-            /// 1 point is one of 2, of 5 to 8 points one of 8, of 9 to 16 one of 16, and of 3
-            /// points next to one of 8 or 16 one of 4); `None` for curves of more than 16
-            /// points.
+            /// The pair of curves `k` and `z`, each without the points that the selects may
+            /// skip ([`ExactCurve::kept`]: the same bits) and padded to the smallest pair of
+            /// point counts that holds them ([`ExactPair::shape`]: a curve of 1 point is one of
+            /// 2, of 5 to 8 points one of 8, of 9 to 16 one of 16); `None` for curves of more
+            /// than 16 points.
             fn new(k: &Curve, z: &Curve) -> Option<ExactPair> {
-                let (a, b) = Self::shape(k.len(), z.len())?;
+                let (a, b) = Self::shape(kept_len(k), kept_len(z))?;
                 $(
                     if (a, b) == ($a, $b) {
-                        let (k, z) = (ExactCurve::<$a>::fitted(k)?, ExactCurve::<$b>::fitted(z)?);
+                        let (k, z) = (ExactCurve::<$a>::kept(k)?, ExactCurve::<$b>::kept(z)?);
                         return Some(ExactPair::$v(k, z));
                     }
                 )*
@@ -440,17 +440,21 @@ exact_pairs!(
     (P44, 4, 4),
     (P80, 8, 0),
     (P82, 8, 2),
+    (P83, 8, 3),
     (P84, 8, 4),
     (P88, 8, 8),
     (P08, 0, 8),
     (P28, 2, 8),
+    (P38, 3, 8),
     (P48, 4, 8),
     (P16_0, 16, 0),
     (P16_2, 16, 2),
+    (P16_3, 16, 3),
     (P16_4, 16, 4),
     (P16_16, 16, 16),
     (P0_16, 0, 16),
     (P2_16, 2, 16),
+    (P3_16, 3, 16),
     (P4_16, 4, 16),
 );
 
@@ -5483,13 +5487,13 @@ mod tests {
                 if (9..=12).contains(&kind) {
                     let k = usize::from(kind - 9);
                     assert_eq!(pull.curve_pairs(), k % 2 + 1, "network {seed}");
-                    let points = [(8, 4), (8, 8), (16, 2), (16, 16)][k];
+                    let points = [(8, 3), (8, 8), (16, 2), (16, 16)][k];
                     assert_eq!(pull.curve_points(), Some(points), "network {seed}");
                 }
                 // (one pair of a sticking spring, with its jumps, and the zero curve)
                 if kind == 18 {
                     assert_eq!(pull.curve_pairs(), 1, "network {seed}");
-                    assert_eq!(pull.curve_points(), Some((4, 0)), "network {seed}");
+                    assert_eq!(pull.curve_points(), Some((3, 0)), "network {seed}");
                 }
                 // (rows with BUT and LNL lanes both)
                 if kind == 7 || kind == 8 {
@@ -5888,7 +5892,7 @@ mod tests {
     }
 
     /// Three pairs of LNL curves drawn point by point, as a user draws a hardening spring: 7 and
-    /// 3 points (the engine's curves of 8 and 4), 5 (with a jump) and 6 points (8 and 8), and,
+    /// 3 points (the engine's curves of 8 and 3), 5 (with a jump) and 6 points (8 and 8), and,
     /// drawn finely, 11 and 2 points (16 and 2).
     fn drawn_pairs() -> [Interaction; 3] {
         let pair = |k: &[(f64, f64)], z: &[(f64, f64)]| Interaction::Lnl {
@@ -6160,16 +6164,16 @@ mod tests {
                 ((4, 2), (4, 2)),
                 ((4, 3), (4, 3)),
                 ((4, 4), (4, 4)),
-                ((1, 3), (4, 3)),
-                ((1, 4), (4, 4)),
+                ((1, 3), (3, 3)),
+                ((1, 4), (3, 4)),
                 ((6, 7), (8, 8)),
                 ((13, 9), (16, 16)),
                 ((0, 0), (0, 0)),
-                ((7, 3), (8, 4)),
+                ((7, 3), (8, 3)),
                 ((11, 2), (16, 2)),
                 ((4, 0), (4, 0)),
-                ((13, 3), (16, 4)),
-                ((3, 7), (4, 8)),
+                ((13, 3), (16, 3)),
+                ((3, 7), (3, 8)),
                 ((5, 0), (8, 0)),
                 ((9, 4), (16, 4)),
             ];

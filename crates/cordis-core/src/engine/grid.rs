@@ -79,7 +79,8 @@
 //! is a [`StringLaw`] computing eight links with the gather step's operands and operations; an
 //! LNL string's curves are evaluated eight at a time by `curve.rs`'s `WideCurve` (whose doc
 //! shows they give `ExactCurve::eval`'s bits), in a piece compiled for its pair of point counts
-//! ([`ExactPair::visit`]), or, for curves of more than 16 points, by `WideLong` ([`LongLinks`],
+//! ([`ExactPair::visit`]; with AVX2 the selects of the points its padding added skipped at run
+//! time, `WideCurve::eval_cut`), or, for curves of more than 16 points, by `WideLong` ([`LongLinks`],
 //! one piece for every point count, `Curve::eval`'s bits). Short strings one after the other in
 //! storage, of REF links all or BUT links all, step in banks ([`Grid::units`]): one call loops
 //! over their pieces, so that a string of 30 MAS costs its 30 MAS and not a call chain as well
@@ -250,6 +251,9 @@ impl<const A: usize, const B: usize> StringLaw for LnlLinks<A, B> {
         self.0.eval(xa - xb) + self.1.eval(va - vb)
     }
 
+    // (`eval_cut`: a piece is compiled for the pair's padded counts, and the selects of the
+    // padding are skipped at run time; with AVX-512, or curves of fewer than 8 points, `eval`)
+
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     unsafe fn wide<V: Vector>(&self) -> Self::Wide<V> {
@@ -259,7 +263,7 @@ impl<const A: usize, const B: usize> StringLaw for LnlLinks<A, B> {
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     unsafe fn force_n<V: Vector>((ck, cz): &Self::Wide<V>, xa: V, va: V, xb: V, vb: V) -> V {
-        ck.eval(xa.sub(xb)).add(cz.eval(va.sub(vb)))
+        ck.eval_cut(xa.sub(xb)).add(cz.eval_cut(va.sub(vb)))
     }
 }
 

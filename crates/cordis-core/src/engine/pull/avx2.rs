@@ -507,9 +507,9 @@ impl StoreForces4<'_> {
         // `store_trimmed`; no closure, which would not have this function's target features)
         if (2..=4).contains(&A) && (2..=4).contains(&B) {
             // (both curves trimmed, `ExactCurve::trimmed`, at the count of the one with more
-            // points once trimmed, the fewer padded, at most two selects more in its lanes: the
-            // sticking spring and a 3-point viscous curve are a pair of 3, not of 4; `trimmed`
-            // is `None` only below a curve's own count)
+            // points once trimmed, the fewer padded, at most two selects more in its lanes: a
+            // pair of 3 and 3 that several pairs padded to 4 and 4 is a pair of 3 again;
+            // `trimmed` is `None` only below a curve's own count)
             let m = k.cut().max(z.cut()) + 1;
             macro_rules! at {
                 ($($m:literal)*) => {
@@ -568,9 +568,9 @@ unsafe fn store_pair<const A: usize, const B: usize>(
 /// ([`ExactCurve::trimmed`]: the same bits), where the stiffness curve has 5 to 16 points and
 /// the viscous one at most 4, and one of them sheds a point: false (nothing stored) for other
 /// pairs. Each select shed is a compare and three blends of each vector of links: the bench's
-/// `drawn` pair, 7 and 3 points padded to 8 and 4, makes 6 selects, not 8. (A viscous curve
-/// of many points next to a short stiffness curve is rarer, and left as it is: the shapes of
-/// `Pair4` this makes are 48 already.)
+/// `drawn` pair, 7 and 3 points kept as 8 and 3 (`ExactPair::new`), makes 6 selects, not 7.
+/// (A viscous curve of many points next to a short stiffness curve is rarer, and left as it
+/// is: the shapes of `Pair4` this makes are 48 already.)
 ///
 /// # Safety
 /// As [`store_forces`].
