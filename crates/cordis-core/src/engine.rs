@@ -224,9 +224,9 @@ impl Cel {
 #[derive(Clone, Debug)]
 #[allow(clippy::large_enum_variant)] // (one per distinct law, read by value in the loops)
 enum Lnl {
-    /// both curves of at most 16 points (the usual springs, contacts, dampers and sticking
-    /// springs, and curves drawn point by point), each evaluated without a branch in a loop the
-    /// compiler vectorises
+    /// both curves of at most 16 points once kept ([`ExactCurve::kept`]: the usual springs,
+    /// contacts, dampers and sticking springs, and curves drawn point by point), each evaluated
+    /// without a branch in a loop the compiler vectorises
     Exact(ExactPair),
     /// a curve of more points: [`Curve::eval`] one link at a time, and [`LongCurve`]s in the
     /// vector paths
@@ -297,8 +297,8 @@ macro_rules! exact_pairs {
             /// The pair of curves `k` and `z`, each without the points that the selects may
             /// skip ([`ExactCurve::kept`]: the same bits) and padded to the smallest pair of
             /// point counts that holds them ([`ExactPair::shape`]: a curve of 1 point is one of
-            /// 2, of 5 to 8 points one of 8, of 9 to 16 one of 16); `None` for curves of more
-            /// than 16 points.
+            /// 2, of 5 to 8 points one of 8, of 9 to 16 one of 16); `None` for a curve of more
+            /// than 16 points once kept.
             fn new(k: &Curve, z: &Curve) -> Option<ExactPair> {
                 let (a, b) = Self::shape(kept_len(k), kept_len(z))?;
                 $(
