@@ -251,15 +251,14 @@ impl<const A: usize, const B: usize> StringLaw for LnlLinks<A, B> {
         self.0.eval(xa - xb) + self.1.eval(va - vb)
     }
 
-    // (`eval_cut`: a piece is compiled for the pair's padded counts, and the selects of the
-    // padding are skipped at run time; with AVX-512, or curves of fewer than 8 points, `eval`)
-
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     unsafe fn wide<V: Vector>(&self) -> Self::Wide<V> {
         (self.0.wide(), self.1.wide())
     }
 
+    /// `eval_cut`: a piece is compiled for the pair's padded counts, and the selects of the
+    /// padding are skipped at run time (with AVX-512, or curves of fewer than 8 points, `eval`).
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     unsafe fn force_n<V: Vector>((ck, cz): &Self::Wide<V>, xa: V, va: V, xb: V, vb: V) -> V {
