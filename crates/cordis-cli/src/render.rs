@@ -9,6 +9,7 @@ use cordis_model::{stability, Model};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::output::{self, Format, Pending, SampleFormat};
+use crate::threads::AutoThreads;
 use crate::{exit, pictures, report, ModelArgs, RenderArgs, SpecArgs};
 use cordis_model::{EnergyMeter, EnergyRow, EventLog};
 
@@ -274,32 +275,53 @@ pub fn render(args: &RenderArgs) -> u8 {
         |t| t as usize,
     );
     engine.set_threads(threads);
+    // (no `--threads`: every core, kept only while faster than one, `threads.rs`)
+    let mut auto = (args.threads.is_none() && engine.is_parallel() && !observing)
+        .then(|| AutoThreads::new(threads, frames));
     let block = args.block as usize;
     let started = Instant::now();
     let bar = ProgressBar::hidden();
     let mut bar_shown = false;
     let mut done = 0usize;
     while done < frames {
-        let n = block.min(frames - done);
-        let block_out = &mut data[done * channels..(done + n) * channels];
-        let result = if observing {
-            engine.process_observed(n, block_out, &mut |v| {
-                if let Some(log) = events.as_mut() {
-                    log.observe(v);
-                }
-                if let Some(meter) = energy.as_mut() {
-                    meter.observe(v);
-                }
-            })
-        } else {
-            engine.process(n, block_out)
-        };
-        if let Err(b) = result {
-            bar.finish_and_clear();
-            report_blow_up(&model, b);
-            return exit::UNSTABLE;
+        // (a chunk of frames on the threads `auto` asks for, or a block)
+        let step = auto.as_mut().map(|a| a.next(started.elapsed()));
+        if let Some(t) = step.map(|s| s.threads).filter(|&t| t != engine.threads()) {
+            engine.set_threads(t);
         }
-        done += n;
+        let chunk = step
+            .and_then(|s| s.frames)
+            .unwrap_or(block)
+            .min(frames - done);
+        let chunk_started = Instant::now();
+        let mut stepped = 0;
+        while stepped < chunk {
+            let n = block.min(chunk - stepped);
+            let at = done + stepped;
+            let block_out = &mut data[at * channels..(at + n) * channels];
+            let result = if observing {
+                engine.process_observed(n, block_out, &mut |v| {
+                    if let Some(log) = events.as_mut() {
+                        log.observe(v);
+                    }
+                    if let Some(meter) = energy.as_mut() {
+                        meter.observe(v);
+                    }
+                })
+            } else {
+                engine.process(n, block_out)
+            };
+            if let Err(b) = result {
+                bar.finish_and_clear();
+                report_blow_up(&model, b);
+                return exit::UNSTABLE;
+            }
+            stepped += n;
+        }
+        if let (Some(a), Some(s)) = (auto.as_mut(), step) {
+            a.record(s.threads, chunk, chunk_started.elapsed(), started.elapsed());
+        }
+        done += chunk;
         if !bar_shown
             && started.elapsed() > Duration::from_millis(700)
             && std::io::stderr().is_terminal()
@@ -418,6 +440,9 @@ pub fn render(args: &RenderArgs) -> u8 {
         elapsed,
         rate
     );
+    if let Some(s) = auto.as_ref().and_then(AutoThreads::summary) {
+        eprintln!("cordis: stepped on {s}");
+    }
     for e in extras {
         eprintln!("cordis: wrote {e}");
     }

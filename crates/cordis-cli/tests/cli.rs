@@ -959,7 +959,9 @@ fn graph_and_spice_exports() {
     assert!(r.stderr.contains("did you mean"), "{}", r.stderr);
 }
 
-/// A network large enough for the engine's threads renders the same bytes on 1 and 2 threads.
+/// A network large enough for the engine's threads renders the same bytes on 1 and 2 threads,
+/// and with no `--threads`, where on two cores or more the render times both and changes between
+/// them (chunks of at most an eighth of the render, so the trial ends within these 300 frames).
 #[test]
 fn render_threads_give_the_same_bytes() {
     let dir = tempfile::tempdir().unwrap();
@@ -970,25 +972,24 @@ fn render_threads_give_the_same_bytes() {
          enf hit mem[3, 4] signal=impulse(at=0, amp=1)\nsox a mem[60, 61]\nsox b mem[7, 100]\n",
     );
     let mut outputs = Vec::new();
-    for t in ["1", "2"] {
+    for t in ["1", "2", "auto"] {
         let out = format!("t{t}.f64");
-        let r = cordis(
-            dir.path(),
-            &[
-                "render",
-                "big.cordis",
-                "-o",
-                &out,
-                "--threads",
-                t,
-                "--block",
-                "37",
-            ],
-        );
+        let mut args = vec!["render", "big.cordis", "-o", &out, "--block", "37"];
+        if t != "auto" {
+            args.extend(["--threads", t]);
+        }
+        let r = cordis(dir.path(), &args);
         expect_code!(r, 0);
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let timed = r.stderr.contains("cordis: stepped on ");
+        assert_eq!(timed, t == "auto" && cores > 1, "{t}: {}", r.stderr);
         outputs.push(std::fs::read(dir.path().join(&out)).unwrap());
     }
     assert_eq!(outputs[0].len(), 300 * 2 * 8);
     assert!(outputs[0].iter().any(|&b| b != 0));
     assert!(outputs[0] == outputs[1], "1 and 2 threads differ");
+    assert!(
+        outputs[0] == outputs[2],
+        "1 thread and the timed threads differ"
+    );
 }

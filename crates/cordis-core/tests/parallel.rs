@@ -209,6 +209,60 @@ fn random_networks_match_on_any_thread_count_and_block_size() {
     }
 }
 
+/// The thread count changed between blocks, as `cordis render` does when it times both: the
+/// pull step (springs, and LNL links whose forces the AVX2 step stores, two barriers a step) and
+/// the grid step (a string, the language's kind) give the single-thread bits.
+#[test]
+fn changing_the_threads_between_blocks_keeps_the_output() {
+    let mut string = Network::new();
+    let ground = string.add_material(Material::Sol { x0: 0.0 });
+    let mut prev = ground;
+    for i in 0..3000 {
+        let v0 = if i == 700 { 1.0 } else { 0.0 };
+        let m = string.add_material(Material::Mas {
+            m: 1.0,
+            x0: 0.0,
+            v0,
+        });
+        string.add_link(Interaction::Ref { k: 0.1, z: 1e-4 }, prev, m);
+        prev = m;
+        if i % 1000 == 500 {
+            string.add_position_output(m);
+        }
+    }
+    string.add_link(Interaction::Ref { k: 0.1, z: 1e-4 }, prev, ground);
+    for (net, what) in [
+        (spring_network(6, 3001, 4, 1, false), "springs"),
+        (lnl_network(7, 2000, 2, true, true), "LNL links"),
+        (string, "string"),
+    ] {
+        let steps = 700;
+        let expected = single_thread_checked(&net, steps);
+        let ch = net.outputs.len();
+        let mut e = engine(&net, 2);
+        let mut out = vec![0.0; steps * ch];
+        let mut done = 0;
+        for (threads, n) in [
+            (2, 64),
+            (1, 100),
+            (1, 36),
+            (2, 200),
+            (3, 100),
+            (1, 50),
+            (2, 150),
+        ] {
+            if threads != e.threads() {
+                e.set_threads(threads);
+            }
+            assert_eq!(e.is_parallel(), threads > 1);
+            e.process(n, &mut out[done * ch..(done + n) * ch]).unwrap();
+            done += n;
+        }
+        assert_eq!(done, steps);
+        assert_eq!(first_bit_difference(&out, &expected), None, "{what}");
+    }
+}
+
 /// Networks of springs and dampers (the pull step's kind on an AVX-512 CPU: one barrier per
 /// step, each thread its consecutive groups of eight MAS, the last one the CEL and ENX), with
 /// every MAS update form, uniform and mixed links, and as many threads as groups or more.
