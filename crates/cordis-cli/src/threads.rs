@@ -7,7 +7,8 @@
 //! 100,000-mass random network renders 0.6–0.8x as fast on two threads as on one. The output is
 //! the same bits whatever the number of threads (the engine's promise, tested), so the render may
 //! change it between blocks: [`AutoThreads`] times short chunks on both, keeps the faster, and
-//! tries again every [`RETRY`] (a host may move its vCPUs).
+//! tries again after [`RETRY`] (a host may move its vCPUs), then after twice as long each time
+//! a trial keeps the choice, up to [`RETRY_MOST`].
 //!
 //! The choice is kept apart from the clock: [`AutoThreads::next`] says what to step next and
 //! [`AutoThreads::record`] takes how long it took, so the tests drive it with made-up times.
@@ -16,15 +17,17 @@ use std::time::Duration;
 
 /// How long a trial chunk should take (its frames are set from the first chunk's time, and are
 /// at most an eighth of the render, so that a short render ends its first trial too).
-pub const TRIAL: Duration = Duration::from_millis(50);
+pub const TRIAL: Duration = Duration::from_millis(20);
 /// A trial's chunks: on every thread (`true`) or on one, in the order every, one, one, every,
 /// so that a steady drift of the machine's speed falls on both alike.
 const ORDER: [bool; 4] = [true, false, false, true];
 /// The threads are kept when they step at least this much faster than one thread (else one
 /// thread is, which leaves the other cores free).
 pub const GAIN: f64 = 1.05;
-/// Time between trials, from the end of the last.
-pub const RETRY: Duration = Duration::from_secs(20);
+/// Time between trials, from the end of the last, when the last changed the choice.
+pub const RETRY: Duration = Duration::from_secs(5);
+/// The most time between trials (twice as long after each that keeps the choice).
+pub const RETRY_MOST: Duration = Duration::from_secs(40);
 /// The first chunk's frames, which sizes the trials.
 const FIRST: usize = 64;
 
@@ -57,8 +60,12 @@ pub struct AutoThreads {
     frames: usize,
     /// The current trial's seconds per frame summed, on every thread and on one.
     per_frame: [f64; 2],
-    /// The last trial's speed of every thread against one (one's time over theirs).
+    /// The last trial's speed of every thread against one (one's time over theirs), and its
+    /// choice.
     ratio: Option<f64>,
+    choice: Option<usize>,
+    /// The time to the next trial.
+    retry: Duration,
     trials: usize,
 }
 
@@ -73,6 +80,8 @@ impl AutoThreads {
             frames: FIRST.min(most),
             per_frame: [0.0; 2],
             ratio: None,
+            choice: None,
+            retry: RETRY,
             trials: 0,
         }
     }
@@ -126,9 +135,15 @@ impl AutoThreads {
                     self.ratio = Some(ratio);
                     self.trials += 1;
                     let threads = if ratio >= GAIN { self.many } else { 1 };
+                    self.retry = if self.choice == Some(threads) {
+                        (2 * self.retry).min(RETRY_MOST)
+                    } else {
+                        RETRY
+                    };
+                    self.choice = Some(threads);
                     self.phase = Phase::Settled {
                         threads,
-                        until: now + RETRY,
+                        until: now + self.retry,
                     };
                 }
             }
@@ -136,26 +151,19 @@ impl AutoThreads {
         }
     }
 
-    /// The threads chosen by the last trial (`None` before the first has ended).
-    pub fn chosen(&self) -> Option<usize> {
-        match self.phase {
-            Phase::Settled { threads, .. } => Some(threads),
-            _ => None,
-        }
-    }
-
     /// What the trials found, for the render's last line: e.g. `1 thread (2 stepped 0.63x as
-    /// fast as 1, 3 trials)`; `None` before the first trial has ended.
+    /// fast as 1 in the last of 3 trials)`; `None` before the first trial has ended.
     pub fn summary(&self) -> Option<String> {
-        let ratio = self.ratio?;
-        let threads = self.chosen().unwrap_or(self.many);
+        let (ratio, threads) = (self.ratio?, self.choice?);
         let plural = |n: usize| if n == 1 { "" } else { "s" };
+        let trials = match self.trials {
+            1 => "1 trial".to_string(),
+            n => format!("the last of {n} trials"),
+        };
         Some(format!(
-            "{threads} thread{} ({} stepped {ratio:.2}x as fast as 1, {} trial{})",
+            "{threads} thread{} ({} stepped {ratio:.2}x as fast as 1 in {trials})",
             plural(threads),
             self.many,
-            self.trials,
-            plural(self.trials)
         ))
     }
 }
@@ -202,20 +210,20 @@ mod tests {
                 1.5e-6
             }
         });
-        assert_eq!(auto.chosen(), Some(1));
-        // the sizing chunk, then a trial of chunks of 50 ms on two threads (33,333 frames),
+        assert_eq!(auto.choice, Some(1));
+        // the sizing chunk, then a trial of chunks of 20 ms on two threads (13,333 frames),
         // whatever the block; about 2 s of work, so no second trial
         assert_eq!(steps[0], (2, FIRST));
         let trial: Vec<_> = steps[1..5].to_vec();
-        assert_eq!(trial, [(2, 33_333), (1, 33_333), (1, 33_333), (2, 33_333)]);
+        assert_eq!(trial, [(2, 13_333), (1, 13_333), (1, 13_333), (2, 13_333)]);
         assert_eq!(steps[5], (1, 4096), "then blocks");
         let s = auto.summary().unwrap();
         assert!(
-            s.starts_with("1 thread (2 stepped 0.67x as fast as 1, 1 trial)"),
+            s.starts_with("1 thread (2 stepped 0.67x as fast as 1 in 1 trial)"),
             "{s}"
         );
         let on_two = frames_on(&steps, 2);
-        assert_eq!(on_two, FIRST + 2 * 33_333);
+        assert_eq!(on_two, FIRST + 2 * 13_333);
         assert_eq!(on_two + frames_on(&steps, 1), 2_000_000);
     }
 
@@ -229,17 +237,43 @@ mod tests {
                 0.55e-6
             }
         });
-        assert_eq!(auto.chosen(), Some(2));
-        // the trial chunks are 50 ms long on two threads: 50 ms / 0.55 µs
-        assert_eq!(steps[1], (2, 90_909));
-        assert_eq!(steps[2], (1, 90_909));
-        assert_eq!(steps[4], (2, 90_909));
+        assert_eq!(auto.choice, Some(2));
+        // the trial chunks are 20 ms long on two threads: 20 ms / 0.55 µs
+        assert_eq!(steps[1], (2, 36_363));
+        assert_eq!(steps[2], (1, 36_363));
+        assert_eq!(steps[4], (2, 36_363));
         let s = auto.summary().unwrap();
         assert!(
             s.starts_with("2 threads (2 stepped 1.82x as fast as 1"),
             "{s}"
         );
-        assert!(frames_on(&steps, 1) <= 2 * 90_909);
+        assert!(frames_on(&steps, 1) <= 2 * 36_363);
+    }
+
+    #[test]
+    fn trials_that_keep_the_choice_come_twice_as_far_apart_up_to_the_most() {
+        let mut auto = AutoThreads::new(2, usize::MAX);
+        let (mut now, mut starts) = (Duration::ZERO, Vec::new());
+        while now < Duration::from_secs(200) {
+            let was = auto.trials;
+            let s = auto.next(now);
+            let n = s.frames.unwrap_or(4096);
+            let took = Duration::from_secs_f64(n as f64 * if s.threads == 1 { 1e-6 } else { 2e-6 });
+            if matches!(auto.phase, Phase::Trial { chunk: 0 }) {
+                starts.push(now.as_secs_f64());
+            }
+            now += took;
+            auto.record(s.threads, n, took, now);
+            assert!(auto.trials >= was);
+        }
+        // (a trial takes 60 ms: chunks of 20 ms on two threads, 10 ms on one)
+        let gaps: Vec<f64> = starts.windows(2).map(|w| (w[1] - w[0]).round()).collect();
+        assert_eq!(
+            gaps,
+            [5.0, 10.0, 20.0, 40.0, 40.0, 40.0, 40.0],
+            "trials at {starts:?}"
+        );
+        assert_eq!(auto.choice, Some(1));
     }
 
     #[test]
@@ -252,11 +286,11 @@ mod tests {
                 0.97e-6
             }
         });
-        assert_eq!(auto.chosen(), Some(1));
+        assert_eq!(auto.choice, Some(1));
     }
 
     #[test]
-    fn a_later_trial_follows_the_machine() {
+    fn a_later_trial_follows_the_machine_and_a_trial_cut_short_is_not_reported() {
         let mut auto = AutoThreads::new(2, 60_000_000);
         // two threads slower for the first 30 s of the render, then faster
         let slow_then_fast = |t: usize, now: Duration| match (t, now < Duration::from_secs(30)) {
@@ -265,7 +299,7 @@ mod tests {
             (_, false) => 0.6e-6,
         };
         let steps = run(&mut auto, 60_000_000, 4096, slow_then_fast);
-        assert_eq!(auto.chosen(), Some(2));
+        assert_eq!(auto.choice, Some(2));
         assert!(auto.trials >= 2, "{} trials", auto.trials);
         // the first trial chose one thread: most of the first 30 s ran on it
         assert!(
@@ -278,6 +312,33 @@ mod tests {
             "{}",
             frames_on(&steps, 2)
         );
+        let s = auto.summary().unwrap();
+        assert!(
+            s.starts_with("2 threads (2 stepped 1.67x as fast as 1 in the last of "),
+            "{s}"
+        );
+        // a trial cut short by the render's end: the summary is the last ended one's
+        let mut auto = AutoThreads::new(2, 1_000_000);
+        run(
+            &mut auto,
+            1_000_000,
+            4096,
+            |t, _| if t == 1 { 1e-6 } else { 2e-6 },
+        );
+        let trials = auto.trials;
+        let now = Duration::from_secs(100);
+        assert_eq!(
+            auto.next(now).threads,
+            2,
+            "a new trial starts on every thread"
+        );
+        auto.record(2, 1000, Duration::from_millis(1), now);
+        assert_eq!(auto.trials, trials);
+        assert_eq!(auto.choice, Some(1));
+        assert!(auto
+            .summary()
+            .unwrap()
+            .starts_with("1 thread (2 stepped 0.50x"));
     }
 
     #[test]
@@ -291,12 +352,12 @@ mod tests {
         );
         assert_eq!(steps[..5], [(2, 12), (2, 12), (1, 12), (1, 12), (2, 12)]);
         assert_eq!(steps[5], (1, 40), "then the rest in a block");
-        assert_eq!(auto.chosen(), Some(1));
+        assert_eq!(auto.choice, Some(1));
         assert!(auto.summary().unwrap().contains("0.50x"));
         // a render of one frame: the sizing chunk alone, no choice, nothing to say
         let mut auto = AutoThreads::new(2, 1);
         assert_eq!(run(&mut auto, 1, 4096, |_, _| 1e-6), [(2, 1)]);
-        assert_eq!((auto.chosen(), auto.summary()), (None, None));
+        assert_eq!((auto.choice, auto.summary()), (None, None));
         // a zero-frame record changes nothing
         let mut auto = AutoThreads::new(2, 1000);
         auto.record(2, 0, Duration::from_millis(5), Duration::ZERO);
