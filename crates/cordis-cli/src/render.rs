@@ -318,8 +318,8 @@ pub fn render(args: &RenderArgs) -> u8 {
             }
             stepped += n;
         }
-        if let (Some(a), Some(s)) = (auto.as_mut(), step) {
-            a.record(s.threads, chunk, chunk_started.elapsed(), started.elapsed());
+        if let Some(a) = auto.as_mut() {
+            a.record(chunk, chunk_started.elapsed(), started.elapsed());
         }
         done += chunk;
         if !bar_shown

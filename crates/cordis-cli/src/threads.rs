@@ -110,9 +110,9 @@ impl AutoThreads {
         }
     }
 
-    /// `frames` stepped on `threads` threads (as [`AutoThreads::next`] said) took `took`; `now`
+    /// The `frames` [`AutoThreads::next`] said (or fewer, at the render's end) took `took`; `now`
     /// is the render's clock after them.
-    pub fn record(&mut self, threads: usize, frames: usize, took: Duration, now: Duration) {
+    pub fn record(&mut self, frames: usize, took: Duration, now: Duration) {
         if frames == 0 {
             return;
         }
@@ -126,8 +126,7 @@ impl AutoThreads {
                 self.per_frame = [0.0; 2];
             }
             Phase::Trial { chunk } => {
-                let one = usize::from(threads == 1);
-                self.per_frame[one] += secs / frames as f64;
+                self.per_frame[usize::from(!ORDER[chunk])] += secs / frames as f64;
                 if chunk + 1 < ORDER.len() {
                     self.phase = Phase::Trial { chunk: chunk + 1 };
                 } else {
@@ -188,7 +187,7 @@ mod tests {
             let n = s.frames.unwrap_or(block).min(frames - done);
             let took = Duration::from_secs_f64(n as f64 * per_frame(s.threads, now));
             now += took;
-            auto.record(s.threads, n, took, now);
+            auto.record(n, took, now);
             steps.push((s.threads, n));
             done += n;
         }
@@ -263,7 +262,7 @@ mod tests {
                 starts.push(now.as_secs_f64());
             }
             now += took;
-            auto.record(s.threads, n, took, now);
+            auto.record(n, took, now);
             assert!(auto.trials >= was);
         }
         // (a trial takes 60 ms: chunks of 20 ms on two threads, 10 ms on one)
@@ -332,7 +331,7 @@ mod tests {
             2,
             "a new trial starts on every thread"
         );
-        auto.record(2, 1000, Duration::from_millis(1), now);
+        auto.record(1000, Duration::from_millis(1), now);
         assert_eq!(auto.trials, trials);
         assert_eq!(auto.choice, Some(1));
         assert!(auto
@@ -360,7 +359,7 @@ mod tests {
         assert_eq!((auto.choice, auto.summary()), (None, None));
         // a zero-frame record changes nothing
         let mut auto = AutoThreads::new(2, 1000);
-        auto.record(2, 0, Duration::from_millis(5), Duration::ZERO);
+        auto.record(0, Duration::from_millis(5), Duration::ZERO);
         let first = Step {
             threads: 2,
             frames: Some(FIRST),
