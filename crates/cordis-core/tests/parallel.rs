@@ -211,30 +211,16 @@ fn random_networks_match_on_any_thread_count_and_block_size() {
 
 /// The thread count changed between blocks, as `cordis render` does when it times both: the
 /// pull step (springs, and LNL links whose forces the AVX2 step stores, two barriers a step) and
-/// the grid step (a string, the language's kind) give the single-thread bits.
+/// the grid step (strings as the language declares them, each in pieces) give the single-thread
+/// bits.
 #[test]
 fn changing_the_threads_between_blocks_keeps_the_output() {
-    let mut string = Network::new();
-    let ground = string.add_material(Material::Sol { x0: 0.0 });
-    let mut prev = ground;
-    for i in 0..3000 {
-        let v0 = if i == 700 { 1.0 } else { 0.0 };
-        let m = string.add_material(Material::Mas {
-            m: 1.0,
-            x0: 0.0,
-            v0,
-        });
-        string.add_link(Interaction::Ref { k: 0.1, z: 1e-4 }, prev, m);
-        prev = m;
-        if i % 1000 == 500 {
-            string.add_position_output(m);
-        }
-    }
-    string.add_link(Interaction::Ref { k: 0.1, z: 1e-4 }, prev, ground);
+    // strings of 3,000 and 2,000 MAS: each cut into pieces (rows) that the grid step's threads share
+    let strings = string_bank(8, &[3000, 2000], 0, |_, k| Interaction::Ref { k, z: 1e-4 });
     for (net, what) in [
         (spring_network(6, 3001, 4, 1, false), "springs"),
         (lnl_network(7, 2000, 2, true, true), "LNL links"),
-        (string, "string"),
+        (strings, "strings"),
     ] {
         let steps = 700;
         let expected = single_thread_checked(&net, steps);
