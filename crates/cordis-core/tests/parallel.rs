@@ -215,8 +215,17 @@ fn random_networks_match_on_any_thread_count_and_block_size() {
 /// bits.
 #[test]
 fn changing_the_threads_between_blocks_keeps_the_output() {
-    // strings of 3,000 and 2,000 MAS: each cut into pieces (rows) that the grid step's threads share
-    let strings = string_bank(8, &[3000, 2000], 0, |_, k| Interaction::Ref { k, z: 1e-4 });
+    // strings of 3,000 and 2,000 MAS, cut into pieces of 1,000 (rows) that the grid step's
+    // threads share; the first is plucked at its MAS 1,000, the first of its second piece, which
+    // outputs around it read (the bank's own read the strings' ends)
+    let mut strings = string_bank(8, &[3000, 2000], 0, |_, k| Interaction::Ref { k, z: 1e-4 });
+    let mas: Vec<MatId> = (strings.materials.iter().enumerate())
+        .filter(|(_, m)| matches!(m, Material::Mas { .. }))
+        .map(|(i, _)| MatId(i as u32))
+        .collect();
+    for i in [990, 999, 1000, 1001, 1100] {
+        strings.add_position_output(mas[i]);
+    }
     for (net, what) in [
         (spring_network(6, 3001, 4, 1, false), "springs"),
         (lnl_network(7, 2000, 2, true, true), "LNL links"),
