@@ -59,7 +59,7 @@
 //! The rows are written once over `wide.rs`'s [`Vector`] and compiled for two widths: eight MAS
 //! per block with AVX-512, four with AVX2 (where a shift by a lane costs two shuffles, the right
 //! neighbours are loaded from one slot further instead); a CPU with neither keeps the gather
-//! step. `tests/engine.rs` compares every step with the reference, and `engine.rs`'s tests with
+//! step. `tests/engine.rs` compares every step with the reference, and `engine/tests.rs` with
 //! the gather step in both widths.
 //!
 //! **Strings.** A string is a sheet too ([`Sheet::string_at`]): at least [`COLS_MIN`] MAS in
