@@ -715,7 +715,7 @@ fn the_avx2_pull_step_gives_the_scalar_bits(net: &Network, what: &str) {
         let mut out = [(); 4].map(|()| vec![0.0; block * ch]);
         let [a, b, c, d] = &mut out;
         assert!(pulled.process(block, a).is_ok());
-        assert!(other.process_observed(block, b, &mut |_| {}).is_ok());
+        assert!(other.process_observed(block, b, &mut unobserved).is_ok());
         assert!(threaded.process(block, c).is_ok());
         assert!(scalar.process(block, d).is_ok());
         for (j, o) in [&*b, &*c, &*d].into_iter().enumerate() {
@@ -1211,11 +1211,13 @@ fn the_pull_step_gives_the_other_steps_bits() {
             let mut d = vec![0.0; block * ch];
             assert!(pulled.process(block, &mut a).is_ok());
             assert!(other_way.process(block, &mut d).is_ok());
-            assert!(compact.process_observed(block, &mut b, &mut |_| {}).is_ok());
+            assert!(compact
+                .process_observed(block, &mut b, &mut unobserved)
+                .is_ok());
             let turn = if i % 2 == 0 {
                 turns.process(block, &mut c)
             } else {
-                turns.process_observed(block, &mut c, &mut |_| {})
+                turns.process_observed(block, &mut c, &mut unobserved)
             };
             assert!(turn.is_ok());
             let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
@@ -1765,7 +1767,7 @@ fn the_pull_step_sums_runs_of_one_pair_with_the_curves_in_registers() {
             let [a, b, c, d] = &mut out;
             assert!(pulled.process(block, a).is_ok());
             assert!(from_table.process(block, b).is_ok());
-            assert!(compact.process_observed(block, c, &mut |_| {}).is_ok());
+            assert!(compact.process_observed(block, c, &mut unobserved).is_ok());
             assert!(threads.process(block, d).is_ok());
             // (the storing engine only where there is one: on AVX2)
             let e = stored.as_mut().map(|stored| {
@@ -1932,7 +1934,7 @@ fn a_blow_up_in_the_pull_step_names_the_same_step_and_module() {
     let mut blown = None;
     for _ in 0..200 {
         let x = pulled.process(512, &mut a);
-        let y = compact.process_observed(512, &mut b, &mut |_| {});
+        let y = compact.process_observed(512, &mut b, &mut unobserved);
         assert_eq!(x, y);
         assert!(a.iter().zip(&b).all(|(p, q)| p.to_bits() == q.to_bits()));
         if let Err(e) = x {
