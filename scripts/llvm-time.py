@@ -20,7 +20,7 @@ import sys
 GROUPS = [
     ("pull step (per pair of curves)", ["pull"]),
     ("grid step", ["grid"]),
-    ("block loop (process, process_observed)", ["Block", "process_observed"]),
+    ("block loop (process, process_observed)", ["Block", "process_observed", "observed_block"]),
     ("threads' shares", ["Share", "Job", "process_parallel"]),
     ("blow-up replay (check_block)", ["check_block"]),
     ("restore_link_forces", ["restore_link_forces"]),
