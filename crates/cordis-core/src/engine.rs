@@ -1037,7 +1037,7 @@ impl Engine {
         } else if self.k.pull.is_some() && frames > 0 && self.st.blown.is_none() {
             self.process_pull(frames, out)
         } else {
-            self.process_observed(frames, out, &mut unobserved)
+            self.observing(frames, out, &mut unobserved)
         }
     }
 
@@ -1049,6 +1049,31 @@ impl Engine {
     /// steps of that block up to its end (non-finite values included): discard what it gathered.
     #[track_caller]
     pub fn process_observed<O: FnMut(&StepView<'_>)>(
+        &mut self,
+        frames: usize,
+        out: &mut [f64],
+        observe: &mut O,
+    ) -> Result<(), BlowUp> {
+        self.process_dyn(frames, out, observe)
+    }
+
+    /// [`Engine::process_observed`] for every observer: one compiled block loop for them all,
+    /// in this crate, rather than one for each observer's type in each crate that observes (the
+    /// step compiled three times more; an observer is called through a pointer, once a step).
+    #[track_caller]
+    fn process_dyn(
+        &mut self,
+        frames: usize,
+        out: &mut [f64],
+        observe: &mut dyn FnMut(&StepView<'_>),
+    ) -> Result<(), BlowUp> {
+        self.observing(frames, out, observe)
+    }
+
+    /// [`Engine::process_observed`]'s body, for `process`'s own observer ([`unobserved`]) and
+    /// for every other ([`Engine::process_dyn`]).
+    #[track_caller]
+    fn observing<O: FnMut(&StepView<'_>) + ?Sized>(
         &mut self,
         frames: usize,
         out: &mut [f64],
@@ -1076,7 +1101,7 @@ impl Engine {
     /// instructions. Not inlined, so that the replay of [`Engine::check_block`] calls the copy
     /// that `process` compiled rather than a copy of its own, for the crate's compile time.
     #[inline(never)]
-    fn observed_block<O: FnMut(&StepView<'_>)>(
+    fn observed_block<O: FnMut(&StepView<'_>) + ?Sized>(
         &mut self,
         frames: usize,
         out: &mut [f64],
@@ -3362,7 +3387,7 @@ fn vectorised<W: Vectorised>(simd: Simd, work: W) -> W::Output {
 fn unobserved(_: &StepView<'_>) {}
 
 /// The block loop of [`Engine::process_observed`].
-struct Block<'a, 'o, O> {
+struct Block<'a, 'o, O: ?Sized> {
     k: &'a Kernel,
     st: &'a mut State,
     frames: usize,
@@ -3370,7 +3395,7 @@ struct Block<'a, 'o, O> {
     observe: &'o mut O,
 }
 
-impl<O: FnMut(&StepView<'_>)> Vectorised for Block<'_, '_, O> {
+impl<O: FnMut(&StepView<'_>) + ?Sized> Vectorised for Block<'_, '_, O> {
     type Output = ();
     #[inline(always)]
     fn run(self) {
