@@ -9,12 +9,18 @@
 # commit, under distinct file names. Prints, per build, the median, least and most wall-clock
 # seconds of its renders (parsing and writing the WAV file included), then the MD5 sum of each
 # build's last output, and exits with 1 if the outputs differ (or a render fails: its messages).
+#
+# FLAGS adds words to every render, each `%` in them the build's own output path without its
+# extension, so that files they write are compared too: FLAGS='--events %.events.csv'.
 set -euo pipefail
 R=$1; M=$2; shift 2
 OUT=${OUT:-$(mktemp -d)}
+FLAGS=${FLAGS:-}
 for i in $(seq "$R"); do for b in "$@"; do
   s=$(date +%s.%N)
-  if ! "$b" render "$M" -o "$OUT/$(basename "$b").wav" > "$OUT/log" 2>&1; then
+  stem="$OUT/$(basename "$b")"
+  # shellcheck disable=SC2086 # (FLAGS is words)
+  if ! "$b" render "$M" -o "$stem.wav" ${FLAGS//%/$stem} > "$OUT/log" 2>&1; then
     cat "$OUT/log" >&2; exit 1
   fi
   e=$(date +%s.%N)
@@ -28,9 +34,13 @@ for l in sys.stdin:
 for b, v in d.items():
     print(f"{b:24s} median {st.median(v):.3f} s  min {min(v):.3f}  max {max(v):.3f}  n {len(v)}")
 '
-sums=$(for b in "$@"; do md5sum "$OUT/$(basename "$b").wav"; done)
-echo "$sums"
-if [ "$(echo "$sums" | awk '{print $1}' | sort -u | wc -l)" -ne 1 ]; then
-  echo "the outputs differ" >&2; exit 1
-fi
+first=$(basename "$1")
+for f in "$OUT/$first".*; do
+  ext=${f#"$OUT/$first"}
+  sums=$(for b in "$@"; do md5sum "$OUT/$(basename "$b")$ext"; done)
+  echo "$sums"
+  if [ "$(echo "$sums" | awk '{print $1}' | sort -u | wc -l)" -ne 1 ]; then
+    echo "the outputs differ ($ext)" >&2; exit 1
+  fi
+done
 echo "the outputs are the same bytes"

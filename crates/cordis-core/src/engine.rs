@@ -1058,8 +1058,9 @@ impl Engine {
     }
 
     /// [`Engine::process_observed`] for every observer: one compiled block loop for them all,
-    /// in this crate, rather than one for each observer's type in each crate that observes (the
-    /// step compiled three times more; an observer is called through a pointer, once a step).
+    /// in this crate, rather than one for each observer's type in each crate that observes, each
+    /// the whole step at its three widths (docs/ARCHITECTURE.md, "Build times"). The observer is
+    /// called through a pointer, once a step.
     #[track_caller]
     fn process_dyn(
         &mut self,
