@@ -1059,8 +1059,9 @@ impl Engine {
 
     /// [`Engine::process_observed`] for every observer: one compiled block loop for them all,
     /// in this crate, rather than one for each observer's type in each crate that observes, each
-    /// the whole step at its three widths (docs/ARCHITECTURE.md, "Build times"). The observer is
-    /// called through a pointer, once a step.
+    /// the whole step at its three widths (docs/ARCHITECTURE.md, "Build times"). Not generic, so
+    /// that no other crate compiles it or what it calls; the observer is called through a
+    /// pointer, once a step.
     #[track_caller]
     fn process_dyn(
         &mut self,
