@@ -34,9 +34,9 @@ for l in sys.stdin:
 for b, v in d.items():
     print(f"{b:24s} median {st.median(v):.3f} s  min {min(v):.3f}  max {max(v):.3f}  n {len(v)}")
 '
-first=$(basename "$1")
-for f in "$OUT/$first".*; do
-  ext=${f#"$OUT/$first"}
+exts=(.wav)
+for w in $FLAGS; do [[ $w == *%* ]] && exts+=("${w#*%}"); done
+for ext in "${exts[@]}"; do
   sums=$(for b in "$@"; do md5sum "$OUT/$(basename "$b")$ext"; done)
   echo "$sums"
   if [ "$(echo "$sums" | awk '{print $1}' | sort -u | wc -l)" -ne 1 ]; then
