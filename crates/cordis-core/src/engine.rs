@@ -1037,7 +1037,7 @@ impl Engine {
         } else if self.k.pull.is_some() && frames > 0 && self.st.blown.is_none() {
             self.process_pull(frames, out)
         } else {
-            self.observing(frames, out, &mut unobserved)
+            self.observing(frames, out, None)
         }
     }
 
@@ -1054,32 +1054,21 @@ impl Engine {
         out: &mut [f64],
         observe: &mut O,
     ) -> Result<(), BlowUp> {
-        self.process_dyn(frames, out, observe)
+        self.observing(frames, out, Some(observe))
     }
 
-    /// [`Engine::process_observed`] for every observer: one compiled block loop for them all,
-    /// in this crate, rather than one for each observer's type in each crate that observes, each
-    /// the whole step at its three widths (docs/ARCHITECTURE.md, "Build times"). Not generic, so
-    /// that no other crate compiles it or what it calls; the observer is called through a
-    /// pointer, once a step.
+    /// The body of [`Engine::process_observed`], and of [`Engine::process`] where it takes
+    /// neither the grid, the pull step nor threads (`observe` `None`). Not generic: one compiled
+    /// block loop serves `process` and every observer of every crate, rather than one for each
+    /// observer's type in each crate that observes, each the whole step at its three widths
+    /// (docs/ARCHITECTURE.md, "Build times"). An observer is called through a pointer, once a
+    /// step.
     #[track_caller]
-    fn process_dyn(
+    fn observing(
         &mut self,
         frames: usize,
         out: &mut [f64],
-        observe: &mut dyn FnMut(&StepView<'_>),
-    ) -> Result<(), BlowUp> {
-        self.observing(frames, out, observe)
-    }
-
-    /// [`Engine::process_observed`]'s body, for `process`'s own observer ([`unobserved`]) and
-    /// for every other ([`Engine::process_dyn`]).
-    #[track_caller]
-    fn observing<O: FnMut(&StepView<'_>) + ?Sized>(
-        &mut self,
-        frames: usize,
-        out: &mut [f64],
-        observe: &mut O,
+        observe: Option<&mut dyn FnMut(&StepView<'_>)>,
     ) -> Result<(), BlowUp> {
         let ch = self.k.channels.len();
         assert_eq!(
@@ -1099,15 +1088,15 @@ impl Engine {
         self.check_block(n0, frames, out)
     }
 
-    /// The block loop of [`Engine::process_observed`], compiled for the CPU's vector
-    /// instructions. Not inlined, so that the replay of [`Engine::check_block`] calls the copy
-    /// that `process` compiled rather than a copy of its own, for the crate's compile time.
+    /// The block loop of [`Engine::observing`], compiled for the CPU's vector instructions. Not
+    /// inlined, so that the replay of [`Engine::check_block`] calls the same compiled copy rather
+    /// than a copy of its own, for the crate's compile time.
     #[inline(never)]
-    fn observed_block<O: FnMut(&StepView<'_>) + ?Sized>(
+    fn observed_block(
         &mut self,
         frames: usize,
         out: &mut [f64],
-        observe: &mut O,
+        observe: Option<&mut dyn FnMut(&StepView<'_>)>,
     ) {
         let block = Block {
             k: &self.k,
@@ -1314,7 +1303,7 @@ impl Engine {
         for frame in 0..frames {
             // (`process`'s block loop, a block of one step: no compiled copy of the step of its
             // own, which took 7 % of the crate's optimisation time)
-            self.observed_block(1, &mut out[frame * ch..(frame + 1) * ch], &mut unobserved);
+            self.observed_block(1, &mut out[frame * ch..(frame + 1) * ch], None);
             if let Some(bad) = self.first_non_finite() {
                 out[(frame + 1) * ch..].fill(0.0);
                 let b = BlowUp {
@@ -3384,20 +3373,16 @@ fn vectorised<W: Vectorised>(simd: Simd, work: W) -> W::Output {
     work.run()
 }
 
-/// The observer of [`Engine::process`]: none. A named function, so that `process` and the
-/// replay of [`Engine::check_block`] share one compiled block loop ([`Engine::observed_block`]).
-fn unobserved(_: &StepView<'_>) {}
-
-/// The block loop of [`Engine::process_observed`].
-struct Block<'a, 'o, O: ?Sized> {
+/// The block loop of [`Engine::observing`], with its observer if it has one.
+struct Block<'a, 'o> {
     k: &'a Kernel,
     st: &'a mut State,
     frames: usize,
     out: &'a mut [f64],
-    observe: &'o mut O,
+    observe: Option<&'o mut dyn FnMut(&StepView<'_>)>,
 }
 
-impl<O: FnMut(&StepView<'_>) + ?Sized> Vectorised for Block<'_, '_, O> {
+impl Vectorised for Block<'_, '_> {
     type Output = ();
     #[inline(always)]
     fn run(self) {
@@ -3406,19 +3391,21 @@ impl<O: FnMut(&StepView<'_>) + ?Sized> Vectorised for Block<'_, '_, O> {
             st,
             frames,
             out,
-            observe,
+            mut observe,
         } = self;
         let ch = k.channels.len();
         for frame in 0..frames {
             st.step(k, &mut out[frame * ch..(frame + 1) * ch]);
-            let r = Roles::at(st.c);
-            observe(&StepView {
-                n: st.n - 1,
-                k,
-                x: &st.pos[r.cur],
-                xp: &st.pos[r.prev],
-                lf: &st.sf[..k.nl],
-            });
+            if let Some(observe) = observe.as_deref_mut() {
+                let r = Roles::at(st.c);
+                observe(&StepView {
+                    n: st.n - 1,
+                    k,
+                    x: &st.pos[r.cur],
+                    xp: &st.pos[r.prev],
+                    lf: &st.sf[..k.nl],
+                });
+            }
         }
     }
 }

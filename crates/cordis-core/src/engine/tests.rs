@@ -1,5 +1,10 @@
 use super::*;
 
+/// An observer that does nothing: `process_observed` through it takes the observing block loop
+/// (the same one `process` takes on the gather and compact steps) where `process` would take
+/// the pull or grid step.
+fn unobserved(_: &StepView<'_>) {}
+
 /// Every vector width this CPU has steps to the same bits as the scalar build, on a string
 /// and a membrane whose links come in uniform and varied runs of every law (LNL curves of 2,
 /// 3 and 17 points), BUT thresholds of both signs, an ENF input and every output kind.
