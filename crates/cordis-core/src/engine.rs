@@ -1138,15 +1138,7 @@ impl Engine {
                 frames,
                 channels: ch,
             };
-            pool.run_steps(&job, |barrier| {
-                let share = Share {
-                    job: &job,
-                    t: 0,
-                    out: Some(out),
-                    barrier,
-                };
-                vectorised(job.k.simd, share)
-            })
+            pool.run_steps(&job, |barrier| job.run_share(0, Some(out), barrier))
         };
         self.drop_pool_if_failed(result);
         self.st.set_step(n0 + frames as u64);
@@ -1281,14 +1273,26 @@ impl Engine {
         Ok(())
     }
 
-    /// After a block of the pull step: `link_force` reads `f(n-1)`, which the pull step keeps
-    /// nowhere; computed from `x(n-1)` and `x(n-2)`, as the last step would have.
+    /// After a block of the pull or grid step: `link_force` reads `f(n-1)`, which those steps
+    /// keep nowhere; computed from `x(n-1)` and `x(n-2)`, as the last step would have. An LNL
+    /// run is computed link by link through [`Lnl::force`], `k(d) + z(v)` as
+    /// [`Kernel::run_links`] computes it (the same bits), not by its loop for each pair of
+    /// curves' shape: this pass runs once a block, and those loops, compiled here once more,
+    /// were most of its code (docs/ARCHITECTURE.md, "Build times").
     fn restore_link_forces(&mut self) {
         let r = Roles::at(self.st.c);
         let state = Positions::new(&self.k, &self.st.pos[r.prev], &self.st.pos[r.next]);
-        for run in &self.k.whole.runs {
-            self.k
-                .run_links(run, &state, &mut self.st.sf[run.start..run.end]);
+        let k = &self.k;
+        for run in &k.whole.runs {
+            let lf = &mut self.st.sf[run.start..run.end];
+            if run.law == Law::Lnl {
+                let (lnl, of) = (&k.lnl, &k.lnl_of[run.start..run.end]);
+                k.each(run, &state, lf, |i, xa, pa, xb, pb| {
+                    lnl[of[i] as usize].force(xa - xb, (xa - pa) - (xb - pb))
+                });
+            } else {
+                k.run_links(run, &state, lf);
+            }
         }
     }
 
@@ -4241,17 +4245,30 @@ struct Job<'a> {
 
 impl Task for Job<'_> {
     fn run(&self, t: usize, barrier: &SpinBarrier) -> Result<(), Poisoned> {
-        let share = Share {
-            job: self,
-            t,
-            out: None,
-            barrier,
-        };
-        vectorised(self.k.simd, share)
+        self.run_share(t, None, barrier)
     }
 }
 
 impl Job<'_> {
+    /// Thread `t`'s share of the block, compiled for the CPU's vector instructions; thread 0
+    /// passes the output buffer. Not inlined: the calling thread and the workers run one
+    /// compiled copy (inlined into both, the step without vectors was compiled twice).
+    #[inline(never)]
+    fn run_share(
+        &self,
+        t: usize,
+        out: Option<&mut [f64]>,
+        barrier: &SpinBarrier,
+    ) -> Result<(), Poisoned> {
+        let share = Share {
+            job: self,
+            t,
+            out,
+            barrier,
+        };
+        vectorised(self.k.simd, share)
+    }
+
     #[inline(always)]
     fn run_part(
         &self,
