@@ -1274,25 +1274,13 @@ impl Engine {
     }
 
     /// After a block of the pull or grid step: `link_force` reads `f(n-1)`, which those steps
-    /// keep nowhere; computed from `x(n-1)` and `x(n-2)`, as the last step would have. An LNL
-    /// run is computed link by link through [`Lnl::force`], `k(d) + z(v)` as
-    /// [`Kernel::run_links`] computes it (the same bits), not by its loop for each pair of
-    /// curves' shape: this pass runs once a block, and those loops, compiled here once more,
-    /// were most of its code (docs/ARCHITECTURE.md, "Build times").
+    /// keep nowhere; computed from `x(n-1)` and `x(n-2)`, as the last step would have.
     fn restore_link_forces(&mut self) {
         let r = Roles::at(self.st.c);
         let state = Positions::new(&self.k, &self.st.pos[r.prev], &self.st.pos[r.next]);
-        let k = &self.k;
-        for run in &k.whole.runs {
-            let lf = &mut self.st.sf[run.start..run.end];
-            if run.law == Law::Lnl {
-                let (lnl, of) = (&k.lnl, &k.lnl_of[run.start..run.end]);
-                k.each(run, &state, lf, |i, xa, pa, xb, pb| {
-                    lnl[of[i] as usize].force(xa - xb, (xa - pa) - (xb - pb))
-                });
-            } else {
-                k.run_links(run, &state, lf);
-            }
+        for run in &self.k.whole.runs {
+            self.k
+                .run_links(run, &state, &mut self.st.sf[run.start..run.end]);
         }
     }
 
