@@ -60,7 +60,8 @@
 //! A kind without a size selects its default models. Work per timed run: `CORDIS_BENCH_WORK`
 //! mass-steps (default 2e8, as `baselines.sh`), i.e. `steps = work / masses` (at least 1000). Each
 //! model is timed 5 times, cordis and the baseline back to back, and the medians are printed.
-//! cordis runs in blocks of 1024 frames into one reused output buffer.
+//! cordis runs in blocks of 1024 frames (`CORDIS_BENCH_BLOCK`, e.g. 64 as a real-time host's) into
+//! one reused output buffer.
 #![allow(clippy::unwrap_used)] // tests and benches may panic on failure
 
 use std::hint::black_box;
@@ -78,7 +79,8 @@ const AIR: f64 = 1.0e-5;
 const BUT_S: f64 = 1.0e3;
 /// Half-width of the LNL curves: far beyond any elongation or velocity of these models.
 const LNL_L: f64 = 1.0e3;
-const BLOCK: usize = 1024;
+/// Frames per `Engine::process` call unless `CORDIS_BENCH_BLOCK` says otherwise.
+const DEFAULT_BLOCK: usize = 1024;
 const RUNS: usize = 5;
 const DEFAULT_WORK: u64 = 200_000_000;
 const MIN_STEPS: u64 = 1000;
@@ -1180,7 +1182,7 @@ fn floor_threads_mode(n: usize, threads: usize) {
     let mut many = Engine::new(&model.net);
     many.set_threads(threads);
     many.set_parallel_threshold(0);
-    let mut buf = vec![0.0; BLOCK * one.channels()];
+    let mut buf = vec![0.0; block() * one.channels()];
     let (mut r1, mut rn, mut c1, mut cn) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (mut e1, mut en) = (Vec::new(), Vec::new());
     let m = model.masses;
@@ -1500,7 +1502,7 @@ fn pull_layouts_mode(n: usize, threads: usize) {
     let mut many = Engine::new(&model.net);
     many.set_threads(threads);
     many.set_parallel_threshold(0);
-    let mut buf = vec![0.0; BLOCK * one.channels()];
+    let mut buf = vec![0.0; block() * one.channels()];
     let mut times: [Vec<f64>; 6] = Default::default();
     let mut sums = Vec::new();
     for _ in 0..RUNS {
@@ -2054,7 +2056,7 @@ fn ceiling_mode(specs: &[Spec]) {
         let steps = (work / model.masses as u64).max(MIN_STEPS);
         let mass_steps = (model.masses as u64 * steps) as f64;
         let mut engine = Engine::new(&model.net);
-        let mut buf = vec![0.0; BLOCK * engine.channels()];
+        let mut buf = vec![0.0; block() * engine.channels()];
         let mut tc = Vec::new();
         let mut sc = 0.0;
         match *spec {
@@ -2154,15 +2156,16 @@ fn ceiling_mode(specs: &[Spec]) {
     }
 }
 
-/// Runs `steps` steps of `engine` from its initial state, in blocks of [`BLOCK`] frames into `buf`;
+/// Runs `steps` steps of `engine` from its initial state, in blocks of [`block`] frames into `buf`;
 /// returns the sum of the output samples.
 fn run_cordis(engine: &mut Engine, steps: u64, buf: &mut [f64]) -> f64 {
     engine.reset();
     let ch = engine.channels();
+    let block = block() as u64;
     let mut acc = 0.0;
     let mut left = steps;
     while left > 0 {
-        let frames = left.min(BLOCK as u64) as usize;
+        let frames = left.min(block) as usize;
         let out = &mut buf[..frames * ch];
         engine
             .process(frames, out)
@@ -2186,6 +2189,17 @@ fn timed<T>(times: &mut Vec<f64>, f: impl FnOnce() -> T) -> T {
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
+}
+
+/// Frames per `Engine::process` call: `CORDIS_BENCH_BLOCK`, or [`DEFAULT_BLOCK`].
+fn block() -> usize {
+    match std::env::var("CORDIS_BENCH_BLOCK") {
+        Ok(s) => match s.trim().parse::<usize>() {
+            Ok(b) if b >= 1 => b,
+            _ => panic!("CORDIS_BENCH_BLOCK must be a number of frames >= 1 (e.g. 64), not {s:?}"),
+        },
+        Err(_) => DEFAULT_BLOCK,
+    }
 }
 
 fn work() -> u64 {
@@ -2408,7 +2422,7 @@ fn threads_mode(n: usize, threads: usize, kinds: &[String]) {
         many.set_threads(threads);
         many.set_parallel_threshold(0); // threads whatever the size: this mode times them
         assert!(many.is_parallel() || threads == 1);
-        let mut buf = vec![0.0; BLOCK * one.channels()];
+        let mut buf = vec![0.0; block() * one.channels()];
         let (mut t1, mut tn) = (Vec::new(), Vec::new());
         let (mut s1, mut sn) = (0.0, 0.0);
         for _ in 0..RUNS {
@@ -2514,7 +2528,7 @@ fn main() {
         let steps = (work / model.masses as u64).max(MIN_STEPS);
         let mass_steps = (model.masses as u64 * steps) as f64;
         let mut engine = Engine::new(&model.net);
-        let mut buf = vec![0.0; BLOCK * engine.channels()];
+        let mut buf = vec![0.0; block() * engine.channels()];
         let mut generic = Generic::new(&model.net, model.out);
         let (mut tc, mut tg) = (Vec::new(), Vec::new());
         let (mut sc, mut sg) = (0.0, 0.0);

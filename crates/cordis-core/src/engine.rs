@@ -649,6 +649,9 @@ struct State {
     pos: [Lines; 3],
     /// `f(n)` of the links `[0, nl)` (by storage slot), ENF samples `[nl, ..)`.
     sf: Vec<f64>,
+    /// Whether the last block took the pull or grid step, which leave `f(n-1)` of the links
+    /// outside the outputs' nowhere: [`Engine::link_force`] then computes it from the positions.
+    forces_behind: bool,
     /// `x(n)` and `x(n-1)` of the moving materials (`0..n_mce`) at the start of the block.
     snap: [Vec<f64>; 2],
     blown: Option<BlowUp>,
@@ -884,6 +887,7 @@ impl Engine {
             c: 0,
             pos: [Lines::zeros(nm), Lines::zeros(nm), Lines::zeros(nm)],
             sf: vec![0.0; k.sf_len],
+            forces_behind: false,
             snap: [vec![0.0; k.n_mce], vec![0.0; k.n_mce]],
             blown: None,
             acc: vec![0.0; if k.compact { k.nm } else { 0 }],
@@ -1011,7 +1015,18 @@ impl Engine {
 
     /// `f(n-1)`: the force the interaction computed at the last step (0 before the first).
     pub fn link_force(&self, l: LinkId) -> f64 {
-        self.st.sf[self.k.lslot[l.index()] as usize]
+        let s = self.k.lslot[l.index()] as usize;
+        // (after a block of the pull or grid step, which keep the forces nowhere: computed from
+        // `x(n-1)` and `x(n-2)`, as the last step did, rather than for every link after every
+        // block)
+        match self.st.forces_behind.then(|| self.k.alone(s)).flatten() {
+            Some(r) => {
+                let roles = Roles::at(self.st.c);
+                let (prev, before) = (&self.st.pos[roles.prev], &self.st.pos[roles.next]);
+                self.k.link_alone(&r, prev, before)
+            }
+            None => self.st.sf[s],
+        }
     }
 
     /// Steps `frames` times, writing one frame of [`Engine::channels`] values per step into `out`
@@ -1098,6 +1113,8 @@ impl Engine {
         out: &mut [f64],
         observe: Option<&mut dyn FnMut(&StepView<'_>)>,
     ) {
+        // (every step of the gather or compact step stores every link's force)
+        self.st.forces_behind &= frames == 0;
         let block = Block {
             k: &self.k,
             st: &mut self.st,
@@ -1141,6 +1158,7 @@ impl Engine {
             pool.run_steps(&job, |barrier| job.run_share(0, Some(out), barrier))
         };
         self.drop_pool_if_failed(result);
+        self.st.forces_behind = false; // (every step stored every link's force)
         self.st.set_step(n0 + frames as u64);
         self.check_block(n0, frames, out)
     }
@@ -1169,7 +1187,7 @@ impl Engine {
         let n0 = self.st.n;
         pull.block(&self.k, &mut self.st, frames, out);
         self.check_block(n0, frames, out)?;
-        self.restore_link_forces();
+        self.st.forces_behind = true;
         Ok(())
     }
 
@@ -1218,7 +1236,7 @@ impl Engine {
         self.drop_pool_if_failed(result);
         self.st.set_step(n0 + frames as u64);
         self.check_block(n0, frames, out)?;
-        self.restore_link_forces();
+        self.st.forces_behind = true;
         Ok(())
     }
 
@@ -1269,25 +1287,14 @@ impl Engine {
             grid.block(&self.k, &mut self.st, frames, out);
         }
         self.check_block(n0, frames, out)?;
-        self.restore_link_forces();
+        self.st.forces_behind = true;
         Ok(())
-    }
-
-    /// After a block of the pull or grid step: `link_force` reads `f(n-1)`, which those steps
-    /// keep nowhere; computed from `x(n-1)` and `x(n-2)`, as the last step would have.
-    fn restore_link_forces(&mut self) {
-        let r = Roles::at(self.st.c);
-        let state = Positions::new(&self.k, &self.st.pos[r.prev], &self.st.pos[r.next]);
-        for run in &self.k.whole.runs {
-            self.k
-                .run_links(run, &state, &mut self.st.sf[run.start..run.end]);
-        }
     }
 
     /// After a block from step `n0`: if a position is not finite, replays the block from the
     /// snapshot one step at a time to find the first bad step and module.
     fn check_block(&mut self, n0: u64, frames: usize, out: &mut [f64]) -> Result<(), BlowUp> {
-        if self.st.cur().iter().all(|v| v.is_finite()) {
+        if all_finite(self.st.cur()) {
             return Ok(());
         }
         let ch = self.k.channels.len();
@@ -1346,6 +1353,7 @@ impl State {
         self.pos[1].copy_from_slice(&k.x_init); // (x(n+1) is written over the mobile ones)
         self.pos[2].copy_from_slice(&k.xp_init);
         self.sf.fill(0.0);
+        self.forces_behind = false;
         self.blown = None;
     }
 
@@ -2077,6 +2085,16 @@ impl Kernel {
                 }
             });
         }
+        // (the runs tile the links in storage order: `Kernel::link_run` searches them by halves)
+        let mut end = 0;
+        for r in &runs {
+            assert!(
+                r.start == end && r.end > r.start,
+                "runs out of storage order"
+            );
+            end = r.end;
+        }
+        assert_eq!(end, nl, "runs must cover every link");
         let whole = Part {
             runs: runs.clone(),
             enf: 0..enf.len(),
@@ -2628,7 +2646,11 @@ impl Kernel {
     /// Link (slot) `l` as a run of its own, read through the index lists (a progression's cut
     /// could land on an exception): `None` if it is in no run.
     fn link_run(&self, l: usize) -> Option<Run> {
-        let run = (self.whole.runs.iter()).find(|r| (r.start..r.end).contains(&l))?;
+        // (the runs are in storage order, see `Kernel::build_with`)
+        let runs = &self.whole.runs;
+        let run = runs
+            .get(runs.partition_point(|r| r.end <= l))
+            .filter(|r| (r.start..r.end).contains(&l))?;
         Some(Run {
             ends: Ends::Indexed,
             ..run.cut(l, l + 1)
@@ -3465,6 +3487,25 @@ impl LinkLaw for ButLaw {
             0.0
         }
     }
+}
+
+/// Whether every value of `x` is finite, as `x.iter().all(|v| v.is_finite())` but in eight
+/// sums without an exit at the first bad value, which LLVM vectorises (a loop that may leave
+/// early it does not): `v * 0.0` is ±0 for a finite `v` and NaN otherwise (`inf * 0` is NaN),
+/// and a NaN stays in a sum. Once a block, over every position (docs/BENCHMARKS.md,
+/// seventieth session).
+fn all_finite(x: &[f64]) -> bool {
+    let mut acc = [0.0f64; 8];
+    let mut chunks = x.chunks_exact(8);
+    for c in &mut chunks {
+        for (a, &v) in acc.iter_mut().zip(c) {
+            *a += v * 0.0;
+        }
+    }
+    for (a, &v) in acc.iter_mut().zip(chunks.remainder()) {
+        *a += v * 0.0;
+    }
+    acc.iter().sum::<f64>() == 0.0
 }
 
 /// `F(n)`: from `+0.0`, the terms of one material in its edge order.

@@ -736,6 +736,19 @@ fn the_avx2_pull_step_gives_the_scalar_bits(net: &Network, what: &str) {
             assert_eq!(e.previous_position(m).to_bits(), xp.to_bits());
         }
     }
+    // `f(n-1)`, computed from the positions after a pull block, stored after the others; 0
+    // after a reset
+    let forces = |e: &Engine| {
+        (0..net.links.len() as u32)
+            .map(|l| e.link_force(LinkId(l)).to_bits())
+            .collect::<Vec<_>>()
+    };
+    assert!(forces(&scalar).iter().any(|&f| f != 0), "{what}");
+    for e in [&pulled, &threaded, &other] {
+        assert_eq!(forces(e), forces(&scalar), "{what}");
+    }
+    pulled.reset();
+    assert!(forces(&pulled).iter().all(|&f| f == 0), "{what}");
 }
 
 /// [`ref_springs`] with LNL links of `pair`: every link (`every` 1), or every third (2:
@@ -2416,7 +2429,9 @@ fn grid_gives_the_gather_bits(name: &str, net: &mut Network) {
             moved |= a.iter().any(|&v| v != 0.0);
             for l in 0..net.links.len() {
                 let l = LinkId(l as u32);
-                assert_eq!(grid.link_force(l).to_bits(), gather.link_force(l).to_bits());
+                let f = gather.link_force(l).to_bits();
+                assert_eq!(grid.link_force(l).to_bits(), f);
+                assert_eq!(threaded.link_force(l).to_bits(), f, "{name}, threads");
             }
             for m in 0..net.materials.len() {
                 let m = MatId(m as u32);
@@ -2428,6 +2443,11 @@ fn grid_gives_the_gather_bits(name: &str, net: &mut Network) {
             }
         }
         assert!(moved, "{name}: the outputs never moved");
+        // (after a reset, `f(n-1)` is 0 before the first step, as stored)
+        grid.reset();
+        for l in (0..net.links.len() as u32).map(LinkId) {
+            assert_eq!(grid.link_force(l).to_bits(), 0, "{name}");
+        }
     }
 }
 
@@ -3519,6 +3539,25 @@ fn parts_own_every_link_once() {
                 line.iter().all(|&t| t == line[0]),
                 "a cache line for one thread"
             );
+        }
+    }
+}
+
+/// `all_finite`, the blow-up check's scan, says what `is_finite` says of every value: each
+/// length to a few whole chunks and a remainder, each non-finite value at each place among
+/// finite ones of every kind (the largest, subnormal, negative zero).
+#[test]
+fn all_finite_finds_every_non_finite_value() {
+    let finite = [f64::MAX, -f64::MAX, f64::MIN_POSITIVE / 4.0, -0.0, 1.5, 0.0];
+    for len in 0..=27 {
+        let x: Vec<f64> = (0..len).map(|i| finite[i % finite.len()]).collect();
+        assert!(all_finite(&x), "length {len}");
+        for at in 0..len {
+            for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, -f64::NAN] {
+                let mut y = x.clone();
+                y[at] = bad;
+                assert!(!all_finite(&y), "length {len}, {bad} at {at}");
+            }
         }
     }
 }
