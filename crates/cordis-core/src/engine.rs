@@ -649,8 +649,8 @@ struct State {
     pos: [Lines; 3],
     /// `f(n)` of the links `[0, nl)` (by storage slot), ENF samples `[nl, ..)`.
     sf: Vec<f64>,
-    /// Whether the last block took the pull or grid step, which leave `f(n-1)` of the links
-    /// outside the outputs' nowhere: [`Engine::link_force`] then computes it from the positions.
+    /// Whether the last block took the pull or grid step, which store `f(n-1)` only of the links
+    /// the outputs read: [`Engine::link_force`] then computes it from the positions.
     forces_behind: bool,
     /// `x(n)` and `x(n-1)` of the moving materials (`0..n_mce`) at the start of the block.
     snap: [Vec<f64>; 2],
@@ -1113,8 +1113,9 @@ impl Engine {
         out: &mut [f64],
         observe: Option<&mut dyn FnMut(&StepView<'_>)>,
     ) {
-        // (every step of the gather or compact step stores every link's force)
-        self.st.forces_behind &= frames == 0;
+        if frames > 0 {
+            self.st.forces_behind = false; // (every gather or compact step stores every force)
+        }
         let block = Block {
             k: &self.k,
             st: &mut self.st,
