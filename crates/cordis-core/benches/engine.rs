@@ -1231,21 +1231,16 @@ fn floor_threads_mode(n: usize, threads: usize) {
     );
 }
 
-/// Two layouts of the pull step's reads, hand-written on the links of a random network of REF
-/// links: the MAS stored by degree, eight a group, a group's `k`-th links in a row of eight lanes
-/// (a lane of a MAS with fewer links reads the MAS itself, a term of `+0.0`); every link's `K` and
-/// `Z` the same (in registers, as the engine's when its rows have one row of parameters); no LNL,
-/// no mask, no output: an upper bound for each layout, not cordis.
+/// Layouts of the pull step's reads, hand-written on the links of a random network of REF links:
+/// the MAS stored by degree, eight a group, a group's `k`-th links in a row of eight lanes (a lane
+/// of a MAS with fewer links reads the MAS itself, a term of `+0.0`); every link's `K` and `Z` the
+/// same (in registers, as the engine's when its rows have one row of parameters); no LNL, no mask,
+/// no output: an upper bound for each layout, not cordis. With AVX-512 a group is one vector
+/// ([`Layout::Pairs`] and [`Layout::Cached`]); with AVX2 two of four lanes, as the engine's AVX2
+/// pull step, in every [`Layout`].
 ///
-/// - *pairs* (as the engine's pull step): a MAS's `x(n)` and `v(n) = x(n) - x(n-1)` side by side
-///   in a pair buffer; a row loads its eight other ends' pairs (16 bytes each) and splits them
-///   into two vectors; each step writes `x(n+1)` and the next pairs.
-/// - *cached*: the other ends' `x(n)` alone (8 bytes each) from the position buffer, and their
-///   `x(n-1)` from a buffer of the row's own (one vector a row, read, then overwritten with the
-///   `x(n)` just loaded: the next step's `x(n-1)`), so `v(n)` is the same subtraction; each step
-///   writes `x(n+1)` alone.
-///
-/// Both compute the same operations on the same operands, so the same bits (checked).
+/// Every layout but [`Layout::Own`] computes the same operations on the same operands, so the same
+/// bits (checked).
 struct PullLayouts {
     /// MAS (the buffers hold whole groups: the last group's slots past `n` are padding)
     n: usize,
@@ -1253,6 +1248,43 @@ struct PullLayouts {
     at: Vec<[u32; 8]>,
     /// per group: the end of its rows in `at`
     ends: Vec<usize>,
+    /// per row: the lanes' own slots ([`Layout::Own`])
+    own: Vec<[u32; 8]>,
+    /// per row of group `g`: where each lane's MAS writes its `x(n+1)` in the mailbox, an index
+    /// `8 r + j` (row `r`, lane `j`) that reads it ([`Layout::Mailbox`]); each MAS of the group
+    /// has one such *write row* for each of the group's rows: it is read once for each of its
+    /// links, and once for each of its group's rows it has no link in
+    to: Vec<[u32; 8]>,
+}
+
+/// What each row of [`PullLayouts`] reads, and where.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Layout {
+    /// As the engine's pull step: a MAS's `x(n)` and `v(n) = x(n) - x(n-1)` side by side in a
+    /// pair buffer; a row loads its eight other ends' pairs (16 bytes each, at scattered slots)
+    /// and splits them into two vectors; each step writes `x(n+1)` and the next pairs.
+    Pairs,
+    /// The other ends' `x(n)` alone (8 bytes each) from the position buffer, and their `x(n-1)`
+    /// from a buffer of the row's own (one vector a row, read, then overwritten with the `x(n)`
+    /// just loaded: the next step's `x(n-1)`), so `v(n)` is the same subtraction; each step
+    /// writes `x(n+1)` alone.
+    Cached,
+    /// [`Layout::Pairs`] with every lane reading its own MAS's pair: the same instructions, with
+    /// no scattered read (the rows' pairs are the group's own, in the L1): what the instructions
+    /// cost alone. Not the network's physics (its bits differ from the others').
+    Own,
+    /// Reads in order, writes scattered: a *mailbox* holds, for each row's lane, the other end's
+    /// `x(n)`, and, in a second one, its `x(n-1)`, so a row reads two vectors where they lie and
+    /// `v(n)` is the same subtraction; each MAS, once its `x(n+1)` is computed, writes it to every
+    /// place that reads it (a third mailbox, the three taking turns as the positions do).
+    Mailbox,
+}
+
+/// The vector width a [`PullLayouts`] step is written in.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Width {
+    Avx512,
+    Avx2,
 }
 
 /// A raw buffer shared by the threads of [`PullLayouts::run`].
@@ -1281,7 +1313,7 @@ impl PullLayouts {
         for (s, &i) in mas.iter().enumerate() {
             slot[i] = s as u32;
         }
-        let (mut at, mut bounds) = (Vec::new(), Vec::new());
+        let (mut at, mut bounds, mut own) = (Vec::new(), Vec::new(), Vec::new());
         // (the last group, when partial, padded with slots of no MAS, which read themselves)
         for g in 0..n.div_ceil(8) {
             let lanes = &mas[8 * g..(8 * g + 8).min(n)];
@@ -1296,29 +1328,62 @@ impl PullLayouts {
                 at.push(std::array::from_fn(|j| {
                     other(j).unwrap_or((8 * g + j) as u32)
                 }));
+                own.push(std::array::from_fn(|j| (8 * g + j) as u32));
             }
             bounds.push(at.len());
+        }
+        // (each slot's readers: the entries `8 r + j` whose lane reads it, in row order)
+        let mut readers: Vec<Vec<u32>> = vec![Vec::new(); 8 * bounds.len()];
+        for (r, row) in at.iter().enumerate() {
+            for (j, &o) in row.iter().enumerate() {
+                readers[o as usize].push((8 * r + j) as u32);
+            }
+        }
+        let mut to = Vec::with_capacity(at.len());
+        let mut start = 0;
+        for (g, &end) in bounds.iter().enumerate() {
+            let lanes = &readers[8 * g..8 * g + 8];
+            // (a slot is read once for each of its links, and by its own lane in each row it has
+            // no link in: as many times as its group has rows)
+            assert!(lanes.iter().all(|r| r.len() == end - start));
+            to.extend((0..end - start).map(|w| std::array::from_fn(|j| lanes[j][w])));
+            start = end;
         }
         PullLayouts {
             n,
             at,
             ends: bounds,
+            own,
+            to,
         }
     }
 
-    /// Seconds for `steps` steps on `threads` threads (each a consecutive range of groups, a
-    /// spin barrier after each step), and a checksum of the final positions' bits; `None`
-    /// without AVX-512.
-    fn run(&self, steps: usize, threads: usize, cached: bool) -> Option<(f64, u64)> {
+    /// Seconds for `steps` steps of `layout` in `width` on `threads` threads (each a consecutive
+    /// range of groups, a spin barrier after each step), and a checksum of the final positions'
+    /// bits; `None` where the CPU lacks `width`, or for a layout not written in it.
+    fn run(
+        &self,
+        steps: usize,
+        threads: usize,
+        width: Width,
+        layout: Layout,
+    ) -> Option<(f64, u64)> {
         #[cfg(not(target_arch = "x86_64"))]
         {
-            let _ = (steps, threads, cached);
+            let _ = (steps, threads, width, layout);
             None
         }
         #[cfg(target_arch = "x86_64")]
         {
             use std::sync::atomic::{AtomicUsize, Ordering};
-            if !std::is_x86_feature_detected!("avx512f") {
+            let has = match width {
+                Width::Avx512 => {
+                    std::is_x86_feature_detected!("avx512f")
+                        && matches!(layout, Layout::Pairs | Layout::Cached)
+                }
+                Width::Avx2 => std::is_x86_feature_detected!("avx2"),
+            };
+            if !has {
                 return None;
             }
             // (whole groups: the slots past the MAS are padding)
@@ -1329,7 +1394,22 @@ impl PullLayouts {
             let pairs0: Vec<f64> = (0..n).flat_map(|i| [x0(i), x0(i)]).collect();
             let mut pairs = [pairs0.clone(), pairs0];
             let mut cache = vec![0.0; 8 * self.at.len()];
+            // (the mailboxes as the positions: `x(n)` in 0, `x(n-1)` = 0 in 2)
+            let entries = if layout == Layout::Mailbox {
+                8 * self.at.len()
+            } else {
+                0
+            };
+            let mut mail: Vec<Vec<f64>> = vec![
+                (self.at.iter().flatten())
+                    .take(entries)
+                    .map(|&o| x0(o as usize))
+                    .collect(),
+                vec![0.0; entries],
+                vec![0.0; entries],
+            ];
             let pos_at: Vec<Shared> = pos.iter_mut().map(|p| Shared(p.as_mut_ptr())).collect();
+            let mail_at: Vec<Shared> = mail.iter_mut().map(|p| Shared(p.as_mut_ptr())).collect();
             let pairs_at = pairs.each_mut().map(|p| Shared(p.as_mut_ptr()));
             let cache_at = Shared(cache.as_mut_ptr());
             let arrived = AtomicUsize::new(0);
@@ -1337,24 +1417,46 @@ impl PullLayouts {
             let t = Instant::now();
             std::thread::scope(|scope| {
                 for th in 0..threads {
-                    let (pos_at, arrived) = (&pos_at, &arrived);
+                    let (pos_at, mail_at, arrived) = (&pos_at, &mail_at, &arrived);
                     let own = groups * th / threads..groups * (th + 1) / threads;
                     scope.spawn(move || {
                         // (the whole `Shared`, not its field: a closure captures what it names)
                         let (cache_at, pairs_at) = (cache_at, pairs_at);
                         for s in 0..steps {
-                            let (cur, prev, next) =
-                                (pos_at[s % 3], pos_at[(s + 2) % 3], pos_at[(s + 1) % 3]);
-                            let (pc, pn) = (pairs_at[s % 2], pairs_at[(s + 1) % 2]);
-                            // SAFETY: the CPU has AVX-512F (checked above); every index of `at` is a
-                            // material below `n`, each buffer holds `n` slots (pairs `2 n`, the
-                            // cache 8 a row), and the thread writes only its own groups' slots of
-                            // `next`, `pn` and the cache, which no thread reads in this step.
+                            let turn =
+                                |b: &[Shared]| (b[s % 3].0, b[(s + 2) % 3].0, b[(s + 1) % 3].0);
+                            let (cur, prev, next) = turn(pos_at);
+                            let (pc, pn) = (pairs_at[s % 2].0, pairs_at[(s + 1) % 2].0);
+                            let g = own.clone();
+                            // SAFETY: the CPU has `width` (checked above); every index of `at`,
+                            // `own` and `to` is a slot below `n` or an entry of the mailboxes,
+                            // each buffer holds `n` slots (pairs `2 n`, the cache and the
+                            // mailboxes 8 a row), and the thread writes only its own groups' slots
+                            // of `next`, `pn` and the cache, and the entries of `next`'s mailbox
+                            // its own MAS's readers have (each entry one MAS's), none of which a
+                            // thread reads in this step.
                             unsafe {
-                                if cached {
-                                    self.step_cached(own.clone(), cur.0, prev.0, next.0, cache_at.0)
-                                } else {
-                                    self.step_pairs(own.clone(), cur.0, prev.0, next.0, pc.0, pn.0)
+                                match (width, layout) {
+                                    (Width::Avx512, Layout::Cached) => {
+                                        self.step_cached(g, cur, prev, next, cache_at.0)
+                                    }
+                                    // (the pairs: `has` above leaves no other)
+                                    (Width::Avx512, _) => {
+                                        self.step_pairs(g, cur, prev, next, pc, pn)
+                                    }
+                                    (Width::Avx2, Layout::Pairs) => {
+                                        self.step_pairs_avx2(g, &self.at, cur, prev, next, pc, pn)
+                                    }
+                                    (Width::Avx2, Layout::Own) => {
+                                        self.step_pairs_avx2(g, &self.own, cur, prev, next, pc, pn)
+                                    }
+                                    (Width::Avx2, Layout::Cached) => {
+                                        self.step_cached_avx2(g, cur, prev, next, cache_at.0)
+                                    }
+                                    (Width::Avx2, Layout::Mailbox) => {
+                                        let mail = turn(mail_at);
+                                        self.step_mailbox_avx2(g, cur, prev, next, mail)
+                                    }
                                 }
                             }
                             arrived.fetch_add(1, Ordering::AcqRel);
@@ -1468,6 +1570,205 @@ impl PullLayouts {
         }
     }
 
+    /// [`Layout::Pairs`] (the rows `at`) or [`Layout::Own`] (`own`) in AVX2, a group as two
+    /// vectors of four lanes, a row's pairs split as the engine's AVX2 `pairs` splits them.
+    ///
+    /// # Safety
+    /// The CPU has AVX2; the groups' slots are within `cur`, `prev` and `next`, their pairs within
+    /// `pn`, every slot of `at` within `pc`.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn step_pairs_avx2(
+        &self,
+        groups: std::ops::Range<usize>,
+        at: &[[u32; 8]],
+        cur: *const f64,
+        prev: *const f64,
+        next: *mut f64,
+        pc: *const f64,
+        pn: *mut f64,
+    ) {
+        use std::arch::x86_64::*;
+        // SAFETY (the whole body): the caller's promise.
+        unsafe {
+            let inv = _mm256_set1_pd(1.0 / M);
+            for g in groups {
+                let (x, xp) = Self::own_avx2(cur, prev, g);
+                let v = [_mm256_sub_pd(x[0], xp[0]), _mm256_sub_pd(x[1], xp[1])];
+                let mut f = [_mm256_setzero_pd(); 2];
+                for r in self.rows(g) {
+                    let at = &at[r];
+                    let p = |j: usize| _mm_loadu_pd(pc.add(2 * at[j] as usize));
+                    let two = |a: usize, b: usize| {
+                        _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(p(a)), p(b))
+                    };
+                    for h in 0..2 {
+                        // `[x0 v0 | x2 v2]` and `[x1 v1 | x3 v3]` of the half's lanes
+                        let (a, b) = (two(4 * h, 4 * h + 2), two(4 * h + 1, 4 * h + 3));
+                        let (xj, vj) = (_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b));
+                        f[h] = Self::term_avx2(f[h], x[h], v[h], xj, vj);
+                    }
+                }
+                for h in 0..2 {
+                    let xn = Self::next_avx2(x[h], xp[h], f[h], inv);
+                    _mm256_storeu_pd(next.add(8 * g + 4 * h), xn);
+                    let vn = _mm256_sub_pd(xn, x[h]);
+                    let (a, b) = (_mm256_unpacklo_pd(xn, vn), _mm256_unpackhi_pd(xn, vn));
+                    let p = pn.add(16 * g + 8 * h);
+                    _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(a, b));
+                    _mm256_storeu_pd(p.add(4), _mm256_permute2f128_pd::<0x31>(a, b));
+                }
+            }
+        }
+    }
+
+    /// [`Layout::Cached`] in AVX2.
+    ///
+    /// # Safety
+    /// The CPU has AVX2; the groups' slots and every slot of `at` are within `cur`, `prev` and
+    /// `next`; the cache holds eight `f64` a row.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn step_cached_avx2(
+        &self,
+        groups: std::ops::Range<usize>,
+        cur: *const f64,
+        prev: *const f64,
+        next: *mut f64,
+        cache: *mut f64,
+    ) {
+        use std::arch::x86_64::*;
+        // SAFETY (the whole body): the caller's promise.
+        unsafe {
+            let inv = _mm256_set1_pd(1.0 / M);
+            for g in groups {
+                let (x, xp) = Self::own_avx2(cur, prev, g);
+                let v = [_mm256_sub_pd(x[0], xp[0]), _mm256_sub_pd(x[1], xp[1])];
+                let mut f = [_mm256_setzero_pd(); 2];
+                for r in self.rows(g) {
+                    let at = &self.at[r];
+                    let p = |j: usize| *cur.add(at[j] as usize);
+                    for h in 0..2 {
+                        let j = 4 * h;
+                        let xj = _mm256_setr_pd(p(j), p(j + 1), p(j + 2), p(j + 3));
+                        let c = cache.add(8 * r + j);
+                        let xjp = _mm256_loadu_pd(c);
+                        _mm256_storeu_pd(c, xj);
+                        f[h] = Self::term_avx2(f[h], x[h], v[h], xj, _mm256_sub_pd(xj, xjp));
+                    }
+                }
+                for h in 0..2 {
+                    let xn = Self::next_avx2(x[h], xp[h], f[h], inv);
+                    _mm256_storeu_pd(next.add(8 * g + 4 * h), xn);
+                }
+            }
+        }
+    }
+
+    /// [`Layout::Mailbox`] in AVX2: `mail` is the mailboxes of `x(n)`, `x(n-1)` and `x(n+1)`.
+    ///
+    /// # Safety
+    /// The CPU has AVX2; the groups' slots are within `cur`, `prev` and `next`; each mailbox holds
+    /// eight `f64` a row.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn step_mailbox_avx2(
+        &self,
+        groups: std::ops::Range<usize>,
+        cur: *const f64,
+        prev: *const f64,
+        next: *mut f64,
+        (mc, mp, mn): (*mut f64, *mut f64, *mut f64),
+    ) {
+        use std::arch::x86_64::*;
+        // SAFETY (the whole body): the caller's promise; every entry of `to` is below eight a
+        // row (`new`).
+        unsafe {
+            let inv = _mm256_set1_pd(1.0 / M);
+            for g in groups {
+                let (x, xp) = Self::own_avx2(cur, prev, g);
+                let v = [_mm256_sub_pd(x[0], xp[0]), _mm256_sub_pd(x[1], xp[1])];
+                let mut f = [_mm256_setzero_pd(); 2];
+                let rows = self.rows(g);
+                for r in rows.clone() {
+                    for h in 0..2 {
+                        let e = 8 * r + 4 * h;
+                        let (xj, xjp) = (_mm256_loadu_pd(mc.add(e)), _mm256_loadu_pd(mp.add(e)));
+                        f[h] = Self::term_avx2(f[h], x[h], v[h], xj, _mm256_sub_pd(xj, xjp));
+                    }
+                }
+                let mut xn = [0.0; 8];
+                for h in 0..2 {
+                    let n = Self::next_avx2(x[h], xp[h], f[h], inv);
+                    _mm256_storeu_pd(next.add(8 * g + 4 * h), n);
+                    _mm256_storeu_pd(xn.as_mut_ptr().add(4 * h), n);
+                }
+                for w in rows {
+                    for (&e, &x) in self.to[w].iter().zip(&xn) {
+                        *mn.add(e as usize) = x;
+                    }
+                }
+            }
+        }
+    }
+
+    /// `x(n)` and `x(n-1)` of group `g`'s eight lanes, as two vectors each.
+    ///
+    /// # Safety
+    /// The CPU has AVX2; slots `8 g..8 g + 8` are within `cur` and `prev`.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn own_avx2(
+        cur: *const f64,
+        prev: *const f64,
+        g: usize,
+    ) -> (
+        [std::arch::x86_64::__m256d; 2],
+        [std::arch::x86_64::__m256d; 2],
+    ) {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller's promise.
+        let at = |b: *const f64, h: usize| unsafe { _mm256_loadu_pd(b.add(8 * g + 4 * h)) };
+        ([at(cur, 0), at(cur, 1)], [at(prev, 0), at(prev, 1)])
+    }
+
+    /// `x(n+1) = 2 x(n) - x(n-1) + F(n) / M` (`inv` = `1 / M`), as the AVX-512 steps compute it.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn next_avx2(
+        x: std::arch::x86_64::__m256d,
+        xp: std::arch::x86_64::__m256d,
+        f: std::arch::x86_64::__m256d,
+        inv: std::arch::x86_64::__m256d,
+    ) -> std::arch::x86_64::__m256d {
+        use std::arch::x86_64::*;
+        _mm256_add_pd(
+            _mm256_sub_pd(_mm256_add_pd(x, x), xp),
+            _mm256_mul_pd(f, inv),
+        )
+    }
+
+    /// [`PullLayouts::term`] on four lanes.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn term_avx2(
+        f: std::arch::x86_64::__m256d,
+        x: std::arch::x86_64::__m256d,
+        v: std::arch::x86_64::__m256d,
+        xj: std::arch::x86_64::__m256d,
+        vj: std::arch::x86_64::__m256d,
+    ) -> std::arch::x86_64::__m256d {
+        use std::arch::x86_64::*;
+        let (k, z) = (_mm256_set1_pd(K), _mm256_set1_pd(Z));
+        let spring = _mm256_mul_pd(k, _mm256_sub_pd(x, xj));
+        let damper = _mm256_mul_pd(z, _mm256_sub_pd(v, vj));
+        _mm256_sub_pd(f, _mm256_add_pd(spring, damper))
+    }
+
     /// `f - (K (x - xj) + Z (v - vj))`, as the engine's REF term.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
@@ -1490,8 +1791,9 @@ impl PullLayouts {
     }
 }
 
-/// `ceiling pull [N [T]]`: [`PullLayouts`] on a random network of N masses, each layout on 1 and
-/// T threads (alternating, median of [`RUNS`]), next to cordis on 1 and T threads.
+/// `ceiling pull [N [T]]`: [`PullLayouts`] on a random network of N masses, each layout in each
+/// width the CPU has on 1 and T threads (alternating, median of [`RUNS`]), next to cordis on 1 and
+/// T threads.
 fn pull_layouts_mode(n: usize, threads: usize) {
     let work = work();
     let model = random(n, Law::Ref);
@@ -1503,58 +1805,66 @@ fn pull_layouts_mode(n: usize, threads: usize) {
     many.set_threads(threads);
     many.set_parallel_threshold(0);
     let mut buf = vec![0.0; block() * one.channels()];
-    let mut times: [Vec<f64>; 6] = Default::default();
-    let mut sums = Vec::new();
+    let kinds: Vec<(Width, Layout)> = [Width::Avx512, Width::Avx2]
+        .into_iter()
+        .flat_map(|w| [Layout::Pairs, Layout::Cached, Layout::Own, Layout::Mailbox].map(|l| (w, l)))
+        .filter(|&(w, l)| layouts.run(1, 1, w, l).is_some())
+        .collect();
+    // per kind and thread count (1, T), then cordis's
+    let mut times = vec![[Vec::new(), Vec::new()]; kinds.len() + 1];
+    let (mut sums, mut own_sums) = (Vec::new(), Vec::new());
     for _ in 0..RUNS {
-        for (i, (cached, t)) in [(false, 1), (true, 1), (false, threads), (true, threads)]
-            .into_iter()
-            .enumerate()
-        {
-            let Some((secs, sum)) = layouts.run(steps, t, cached) else {
-                println!("no AVX-512 on this CPU: no layouts to time");
-                return;
-            };
-            times[i].push(secs);
-            sums.push(sum);
+        for (i, &(width, layout)) in kinds.iter().enumerate() {
+            for (t, count) in [1, threads].into_iter().enumerate() {
+                let (secs, sum) =
+                    (layouts.run(steps, count, width, layout)).expect("the width was found above");
+                times[i][t].push(secs);
+                if layout == Layout::Own {
+                    own_sums.push(sum)
+                } else {
+                    sums.push(sum)
+                }
+            }
         }
-        timed(&mut times[4], || {
+        let [a, b] = &mut times[kinds.len()];
+        timed(a, || {
             run_cordis(&mut one, black_box(steps as u64), &mut buf)
         });
-        timed(&mut times[5], || {
+        timed(b, || {
             run_cordis(&mut many, black_box(steps as u64), &mut buf)
         });
     }
-    let [p1, c1, pt, ct, e1, et] = times.map(median);
-    let rate = |t: f64| mass_steps / t;
+    let same = |s: &[u64]| s.iter().all(|&x| x == s[0]);
     println!(
-        "{} ({} MAS, {} rows): {work:.3e} mass-steps per run, median of {RUNS}; load \
-         average {}; the layouts' bits {}\n\
-         pairs:  1 thread {:.3e}, {threads} threads {:.3e}: x{:.2}\n\
-         cached: 1 thread {:.3e}, {threads} threads {:.3e}: x{:.2}\n\
-         cordis: 1 thread {:.3e}, {threads} threads {:.3e}: x{:.2}\n\
-         cached / pairs: 1 thread {:.2}, {threads} threads {:.2}",
+        "{} ({} MAS, {} rows): {work:.3e} mass-steps per run, median of {RUNS}; load average \
+         {}; the layouts' bits {} (`own` {})\n\
+         layout           1 thread  {threads} threads   ratio  1 thread / cordis's",
         model.name,
         layouts.n,
         layouts.at.len(),
         load_average(),
-        if sums.iter().all(|&s| s == sums[0]) {
-            "the same"
+        if same(&sums) { "the same" } else { "DIFFERENT" },
+        if same(&own_sums) {
+            "the same in every run"
         } else {
-            "DIFFERENT"
+            "DIFFERENT between runs"
         },
-        rate(p1),
-        rate(pt),
-        p1 / pt,
-        rate(c1),
-        rate(ct),
-        c1 / ct,
-        rate(e1),
-        rate(et),
-        e1 / et,
-        p1 / c1,
-        pt / ct,
         work = work as f64
     );
+    let e1 = median(times[kinds.len()][0].clone());
+    let names = kinds
+        .iter()
+        .map(|(w, l)| format!("{w:?} {l:?}").to_lowercase());
+    for (name, [t1, tt]) in names.chain(["cordis".to_string()]).zip(times) {
+        let (t1, tt) = (median(t1), median(tt));
+        println!(
+            "{name:<16} {:.3e} {:.3e} {:>7.2} {:>7.2}",
+            mass_steps / t1,
+            mass_steps / tt,
+            t1 / tt,
+            e1 / t1
+        );
+    }
 }
 
 /// A curve's segment table for [`curve_eval`], padded to `P` segments (8, 16 or 32, a power of two
@@ -2231,7 +2541,7 @@ fn usage() -> ! {
          or: cargo bench -p cordis-core --bench engine -- ceiling MODEL... | ceiling threads [N \
          [T]] | ceiling pull [N [T]] | ceiling curves | ceiling signs | ceiling pingpong   \
          (hand-written kernels: the membrane's stencils, the reads of a random network, on T \
-         threads, the pull step's two layouts, two searches of an LNL curve's segment; how often \
+         threads, the pull step's layouts, two searches of an LNL curve's segment; how often \
          LNL links change segment; a cache line's trip between two threads)"
     );
     std::process::exit(2)
