@@ -65,6 +65,7 @@
 #![allow(clippy::unwrap_used)] // tests and benches may panic on failure
 
 use std::hint::black_box;
+use std::ops::Range;
 use std::time::Instant;
 
 use cordis_core::{Curve, Engine, Interaction, MatId, Material, Network, SimdLimit};
@@ -1444,18 +1445,30 @@ impl PullLayouts {
                                     (Width::Avx512, _) => {
                                         self.step_pairs(g, cur, prev, next, pc, pn)
                                     }
-                                    (Width::Avx2, Layout::Pairs) => {
-                                        self.step_pairs_avx2(g, &self.at, cur, prev, next, pc, pn)
-                                    }
-                                    (Width::Avx2, Layout::Own) => {
-                                        self.step_pairs_avx2(g, &self.own, cur, prev, next, pc, pn)
-                                    }
-                                    (Width::Avx2, Layout::Cached) => {
-                                        self.step_cached_avx2(g, cur, prev, next, cache_at.0)
-                                    }
-                                    (Width::Avx2, Layout::Mailbox) => {
-                                        let mail = turn(mail_at);
-                                        self.step_mailbox_avx2(g, cur, prev, next, mail)
+                                    (Width::Avx2, layout) => {
+                                        let (at, pos) =
+                                            (&self.at, (cur.cast_const(), prev.cast_const(), next));
+                                        match layout {
+                                            Layout::Pairs => {
+                                                self.step_pairs_avx2(g, pos, &Pairs4 { at, pc, pn })
+                                            }
+                                            Layout::Own => {
+                                                let at = &self.own;
+                                                self.step_pairs_avx2(g, pos, &Pairs4 { at, pc, pn })
+                                            }
+                                            Layout::Cached => {
+                                                let cache = cache_at.0;
+                                                self.step_cached_avx2(
+                                                    g,
+                                                    pos,
+                                                    &Cached4 { at, cur, cache },
+                                                )
+                                            }
+                                            Layout::Mailbox => {
+                                                let mail = turn(mail_at);
+                                                self.step_mailbox_avx2(g, pos, &Mailbox4(mail))
+                                            }
+                                        }
                                     }
                                 }
                             }
@@ -1570,185 +1583,83 @@ impl PullLayouts {
         }
     }
 
-    /// [`Layout::Pairs`] (the rows `at`) or [`Layout::Own`] (`own`) in AVX2, a group as two
-    /// vectors of four lanes, a row's pairs split as the engine's AVX2 `pairs` splits them.
+    /// [`PullLayouts::step_avx2`] of each layout, each a function of its own so that callgrind's
+    /// `--toggle-collect` counts it apart (`'*step_pairs_avx2*'`: the pairs and `own`, which run
+    /// the same instructions).
     ///
     /// # Safety
-    /// The CPU has AVX2; the groups' slots are within `cur`, `prev` and `next`, their pairs within
-    /// `pn`, every slot of `at` within `pc`.
+    /// As [`PullLayouts::step_avx2`].
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    #[allow(clippy::too_many_arguments)]
-    unsafe fn step_pairs_avx2(
-        &self,
-        groups: std::ops::Range<usize>,
-        at: &[[u32; 8]],
-        cur: *const f64,
-        prev: *const f64,
-        next: *mut f64,
-        pc: *const f64,
-        pn: *mut f64,
-    ) {
+    #[inline(never)]
+    unsafe fn step_pairs_avx2(&self, groups: Range<usize>, pos: Pos, reads: &Pairs4) {
+        // SAFETY: the caller's promise.
+        unsafe { self.step_avx2(groups, pos, reads) }
+    }
+
+    /// See [`PullLayouts::step_pairs_avx2`].
+    ///
+    /// # Safety
+    /// As [`PullLayouts::step_avx2`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    unsafe fn step_cached_avx2(&self, groups: Range<usize>, pos: Pos, reads: &Cached4) {
+        // SAFETY: the caller's promise.
+        unsafe { self.step_avx2(groups, pos, reads) }
+    }
+
+    /// See [`PullLayouts::step_pairs_avx2`].
+    ///
+    /// # Safety
+    /// As [`PullLayouts::step_avx2`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    unsafe fn step_mailbox_avx2(&self, groups: Range<usize>, pos: Pos, reads: &Mailbox4) {
+        // SAFETY: the caller's promise.
+        unsafe { self.step_avx2(groups, pos, reads) }
+    }
+
+    /// A step of `reads`' layout in AVX2, a group as two vectors of four lanes, as the engine's
+    /// AVX2 pull step: the rows' terms, then `x(n+1)` into `next` and what the layout keeps of it.
+    ///
+    /// # Safety
+    /// The CPU has AVX2; the groups' slots are within `cur`, `prev` and `next`, and `reads`' promise
+    /// holds for the groups' rows.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn step_avx2(&self, groups: Range<usize>, (cur, prev, next): Pos, reads: &impl Reads4) {
         use std::arch::x86_64::*;
         // SAFETY (the whole body): the caller's promise.
         unsafe {
             let inv = _mm256_set1_pd(1.0 / M);
+            let at = |b: *const f64, g: usize, h: usize| _mm256_loadu_pd(b.add(8 * g + 4 * h));
             for g in groups {
-                let (x, xp) = Self::own_avx2(cur, prev, g);
+                let (x, xp) = (
+                    [at(cur, g, 0), at(cur, g, 1)],
+                    [at(prev, g, 0), at(prev, g, 1)],
+                );
                 let v = [_mm256_sub_pd(x[0], xp[0]), _mm256_sub_pd(x[1], xp[1])];
                 let mut f = [_mm256_setzero_pd(); 2];
                 for r in self.rows(g) {
-                    let at = &at[r];
-                    let p = |j: usize| _mm_loadu_pd(pc.add(2 * at[j] as usize));
-                    let two = |a: usize, b: usize| {
-                        _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(p(a)), p(b))
-                    };
                     for h in 0..2 {
-                        // `[x0 v0 | x2 v2]` and `[x1 v1 | x3 v3]` of the half's lanes
-                        let (a, b) = (two(4 * h, 4 * h + 2), two(4 * h + 1, 4 * h + 3));
-                        let (xj, vj) = (_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b));
+                        let (xj, vj) = reads.row(r, h);
                         f[h] = Self::term_avx2(f[h], x[h], v[h], xj, vj);
                     }
                 }
+                let (mut xn, mut vn) = ([_mm256_setzero_pd(); 2], [_mm256_setzero_pd(); 2]);
                 for h in 0..2 {
-                    let xn = Self::next_avx2(x[h], xp[h], f[h], inv);
-                    _mm256_storeu_pd(next.add(8 * g + 4 * h), xn);
-                    let vn = _mm256_sub_pd(xn, x[h]);
-                    let (a, b) = (_mm256_unpacklo_pd(xn, vn), _mm256_unpackhi_pd(xn, vn));
-                    let p = pn.add(16 * g + 8 * h);
-                    _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(a, b));
-                    _mm256_storeu_pd(p.add(4), _mm256_permute2f128_pd::<0x31>(a, b));
+                    // as the AVX-512 steps compute it
+                    let sum = _mm256_sub_pd(_mm256_add_pd(x[h], x[h]), xp[h]);
+                    xn[h] = _mm256_add_pd(sum, _mm256_mul_pd(f[h], inv));
+                    vn[h] = _mm256_sub_pd(xn[h], x[h]);
+                    _mm256_storeu_pd(next.add(8 * g + 4 * h), xn[h]);
                 }
+                reads.wrote(self, g, xn, vn);
             }
         }
-    }
-
-    /// [`Layout::Cached`] in AVX2.
-    ///
-    /// # Safety
-    /// The CPU has AVX2; the groups' slots and every slot of `at` are within `cur`, `prev` and
-    /// `next`; the cache holds eight `f64` a row.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn step_cached_avx2(
-        &self,
-        groups: std::ops::Range<usize>,
-        cur: *const f64,
-        prev: *const f64,
-        next: *mut f64,
-        cache: *mut f64,
-    ) {
-        use std::arch::x86_64::*;
-        // SAFETY (the whole body): the caller's promise.
-        unsafe {
-            let inv = _mm256_set1_pd(1.0 / M);
-            for g in groups {
-                let (x, xp) = Self::own_avx2(cur, prev, g);
-                let v = [_mm256_sub_pd(x[0], xp[0]), _mm256_sub_pd(x[1], xp[1])];
-                let mut f = [_mm256_setzero_pd(); 2];
-                for r in self.rows(g) {
-                    let at = &self.at[r];
-                    let p = |j: usize| *cur.add(at[j] as usize);
-                    for h in 0..2 {
-                        let j = 4 * h;
-                        let xj = _mm256_setr_pd(p(j), p(j + 1), p(j + 2), p(j + 3));
-                        let c = cache.add(8 * r + j);
-                        let xjp = _mm256_loadu_pd(c);
-                        _mm256_storeu_pd(c, xj);
-                        f[h] = Self::term_avx2(f[h], x[h], v[h], xj, _mm256_sub_pd(xj, xjp));
-                    }
-                }
-                for h in 0..2 {
-                    let xn = Self::next_avx2(x[h], xp[h], f[h], inv);
-                    _mm256_storeu_pd(next.add(8 * g + 4 * h), xn);
-                }
-            }
-        }
-    }
-
-    /// [`Layout::Mailbox`] in AVX2: `mail` is the mailboxes of `x(n)`, `x(n-1)` and `x(n+1)`.
-    ///
-    /// # Safety
-    /// The CPU has AVX2; the groups' slots are within `cur`, `prev` and `next`; each mailbox holds
-    /// eight `f64` a row.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn step_mailbox_avx2(
-        &self,
-        groups: std::ops::Range<usize>,
-        cur: *const f64,
-        prev: *const f64,
-        next: *mut f64,
-        (mc, mp, mn): (*mut f64, *mut f64, *mut f64),
-    ) {
-        use std::arch::x86_64::*;
-        // SAFETY (the whole body): the caller's promise; every entry of `to` is below eight a
-        // row (`new`).
-        unsafe {
-            let inv = _mm256_set1_pd(1.0 / M);
-            for g in groups {
-                let (x, xp) = Self::own_avx2(cur, prev, g);
-                let v = [_mm256_sub_pd(x[0], xp[0]), _mm256_sub_pd(x[1], xp[1])];
-                let mut f = [_mm256_setzero_pd(); 2];
-                let rows = self.rows(g);
-                for r in rows.clone() {
-                    for h in 0..2 {
-                        let e = 8 * r + 4 * h;
-                        let (xj, xjp) = (_mm256_loadu_pd(mc.add(e)), _mm256_loadu_pd(mp.add(e)));
-                        f[h] = Self::term_avx2(f[h], x[h], v[h], xj, _mm256_sub_pd(xj, xjp));
-                    }
-                }
-                let mut xn = [0.0; 8];
-                for h in 0..2 {
-                    let n = Self::next_avx2(x[h], xp[h], f[h], inv);
-                    _mm256_storeu_pd(next.add(8 * g + 4 * h), n);
-                    _mm256_storeu_pd(xn.as_mut_ptr().add(4 * h), n);
-                }
-                for w in rows {
-                    for (&e, &x) in self.to[w].iter().zip(&xn) {
-                        *mn.add(e as usize) = x;
-                    }
-                }
-            }
-        }
-    }
-
-    /// `x(n)` and `x(n-1)` of group `g`'s eight lanes, as two vectors each.
-    ///
-    /// # Safety
-    /// The CPU has AVX2; slots `8 g..8 g + 8` are within `cur` and `prev`.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    unsafe fn own_avx2(
-        cur: *const f64,
-        prev: *const f64,
-        g: usize,
-    ) -> (
-        [std::arch::x86_64::__m256d; 2],
-        [std::arch::x86_64::__m256d; 2],
-    ) {
-        use std::arch::x86_64::*;
-        // SAFETY: the caller's promise.
-        let at = |b: *const f64, h: usize| unsafe { _mm256_loadu_pd(b.add(8 * g + 4 * h)) };
-        ([at(cur, 0), at(cur, 1)], [at(prev, 0), at(prev, 1)])
-    }
-
-    /// `x(n+1) = 2 x(n) - x(n-1) + F(n) / M` (`inv` = `1 / M`), as the AVX-512 steps compute it.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    fn next_avx2(
-        x: std::arch::x86_64::__m256d,
-        xp: std::arch::x86_64::__m256d,
-        f: std::arch::x86_64::__m256d,
-        inv: std::arch::x86_64::__m256d,
-    ) -> std::arch::x86_64::__m256d {
-        use std::arch::x86_64::*;
-        _mm256_add_pd(
-            _mm256_sub_pd(_mm256_add_pd(x, x), xp),
-            _mm256_mul_pd(f, inv),
-        )
     }
 
     /// [`PullLayouts::term`] on four lanes.
@@ -1787,6 +1698,144 @@ impl PullLayouts {
             let spring = _mm512_mul_pd(k, _mm512_sub_pd(x, xj));
             let damper = _mm512_mul_pd(z, _mm512_sub_pd(v, vj));
             _mm512_sub_pd(f, _mm512_add_pd(spring, damper))
+        }
+    }
+}
+
+/// Four `f64` lanes.
+#[cfg(target_arch = "x86_64")]
+type V4 = std::arch::x86_64::__m256d;
+
+/// `x(n)`, `x(n-1)` and `x(n+1)` of a [`PullLayouts`] step.
+type Pos = (*const f64, *const f64, *mut f64);
+
+/// How a [`Layout`] reads its rows and keeps a group's `x(n+1)` in AVX2
+/// ([`PullLayouts::step_avx2`]).
+#[cfg(target_arch = "x86_64")]
+trait Reads4 {
+    /// `x(n)` and `v(n)` of the other ends of lanes `4 h..4 h + 4` of row `r`.
+    ///
+    /// # Safety
+    /// The CPU has AVX2; the layout's buffers hold row `r`'s reads.
+    unsafe fn row(&self, r: usize, h: usize) -> (V4, V4);
+
+    /// What the layout keeps beyond the positions of group `g`'s `x(n+1)` and `v(n+1)` (two
+    /// vectors each) of `layouts`.
+    ///
+    /// # Safety
+    /// The CPU has AVX2; the layout's buffers hold group `g`'s writes.
+    #[inline(always)]
+    unsafe fn wrote(&self, layouts: &PullLayouts, g: usize, xn: [V4; 2], vn: [V4; 2]) {
+        let _ = (layouts, g, xn, vn);
+    }
+}
+
+/// [`Layout::Pairs`] (`at` the rows) or [`Layout::Own`] (`at` the lanes' own slots) in AVX2: the
+/// pairs read from `pc`, the next ones written to `pn`.
+#[cfg(target_arch = "x86_64")]
+struct Pairs4<'a> {
+    at: &'a [[u32; 8]],
+    pc: *const f64,
+    pn: *mut f64,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Reads4 for Pairs4<'_> {
+    #[inline(always)]
+    unsafe fn row(&self, r: usize, h: usize) -> (V4, V4) {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller's promise: every slot of `at[r]` is a pair of `pc`.
+        unsafe {
+            let at = &self.at[r];
+            let p = |j: usize| _mm_loadu_pd(self.pc.add(2 * at[4 * h + j] as usize));
+            let two =
+                |a: usize, b: usize| _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(p(a)), p(b));
+            // `[x0 v0 | x2 v2]` and `[x1 v1 | x3 v3]` of the half's lanes, split as the engine's
+            // AVX2 `pairs` splits them
+            let (a, b) = (two(0, 2), two(1, 3));
+            (_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b))
+        }
+    }
+
+    #[inline(always)]
+    unsafe fn wrote(&self, _: &PullLayouts, g: usize, xn: [V4; 2], vn: [V4; 2]) {
+        use std::arch::x86_64::*;
+        for h in 0..2 {
+            // SAFETY: the caller's promise: group `g`'s pairs are within `pn`.
+            unsafe {
+                let (a, b) = (
+                    _mm256_unpacklo_pd(xn[h], vn[h]),
+                    _mm256_unpackhi_pd(xn[h], vn[h]),
+                );
+                let p = self.pn.add(16 * g + 8 * h);
+                _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(a, b));
+                _mm256_storeu_pd(p.add(4), _mm256_permute2f128_pd::<0x31>(a, b));
+            }
+        }
+    }
+}
+
+/// [`Layout::Cached`] in AVX2: the other ends' `x(n)` read from `cur`, their `x(n-1)` from the
+/// row's eight `f64` of `cache`, overwritten with the `x(n)` read.
+#[cfg(target_arch = "x86_64")]
+struct Cached4<'a> {
+    at: &'a [[u32; 8]],
+    cur: *const f64,
+    cache: *mut f64,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Reads4 for Cached4<'_> {
+    #[inline(always)]
+    unsafe fn row(&self, r: usize, h: usize) -> (V4, V4) {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller's promise: every slot of `at[r]` is within `cur`, and the cache
+        // holds eight `f64` a row.
+        unsafe {
+            let at = &self.at[r];
+            let p = |j: usize| *self.cur.add(at[4 * h + j] as usize);
+            let xj = _mm256_setr_pd(p(0), p(1), p(2), p(3));
+            let c = self.cache.add(8 * r + 4 * h);
+            let xjp = _mm256_loadu_pd(c);
+            _mm256_storeu_pd(c, xj);
+            (xj, _mm256_sub_pd(xj, xjp))
+        }
+    }
+}
+
+/// [`Layout::Mailbox`] in AVX2: the mailboxes of `x(n)`, `x(n-1)` and `x(n+1)`, eight `f64` a
+/// row each.
+#[cfg(target_arch = "x86_64")]
+struct Mailbox4((*mut f64, *mut f64, *mut f64));
+
+#[cfg(target_arch = "x86_64")]
+impl Reads4 for Mailbox4 {
+    #[inline(always)]
+    unsafe fn row(&self, r: usize, h: usize) -> (V4, V4) {
+        use std::arch::x86_64::*;
+        let (mc, mp, _) = self.0;
+        // SAFETY: the caller's promise: each mailbox holds eight `f64` a row.
+        unsafe {
+            let e = 8 * r + 4 * h;
+            let (xj, xjp) = (_mm256_loadu_pd(mc.add(e)), _mm256_loadu_pd(mp.add(e)));
+            (xj, _mm256_sub_pd(xj, xjp))
+        }
+    }
+
+    #[inline(always)]
+    unsafe fn wrote(&self, layouts: &PullLayouts, g: usize, xn: [V4; 2], _: [V4; 2]) {
+        use std::arch::x86_64::*;
+        let mut lanes = [0.0; 8];
+        // SAFETY: the caller's promise: each mailbox holds eight `f64` a row, and every entry of
+        // `to` is below eight a row (`PullLayouts::new`).
+        unsafe {
+            _mm256_storeu_pd(lanes.as_mut_ptr(), xn[0]);
+            _mm256_storeu_pd(lanes.as_mut_ptr().add(4), xn[1]);
+            for w in layouts.rows(g) {
+                for (&e, &x) in layouts.to[w].iter().zip(&lanes) {
+                    *self.0 .2.add(e as usize) = x;
+                }
+            }
         }
     }
 }
