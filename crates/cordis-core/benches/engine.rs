@@ -1666,13 +1666,7 @@ impl PullLayouts {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     #[inline]
-    fn term_avx2(
-        f: std::arch::x86_64::__m256d,
-        x: std::arch::x86_64::__m256d,
-        v: std::arch::x86_64::__m256d,
-        xj: std::arch::x86_64::__m256d,
-        vj: std::arch::x86_64::__m256d,
-    ) -> std::arch::x86_64::__m256d {
+    fn term_avx2(f: V4, x: V4, v: V4, xj: V4, vj: V4) -> V4 {
         use std::arch::x86_64::*;
         let (k, z) = (_mm256_set1_pd(K), _mm256_set1_pd(Z));
         let spring = _mm256_mul_pd(k, _mm256_sub_pd(x, xj));
@@ -1707,6 +1701,7 @@ impl PullLayouts {
 type V4 = std::arch::x86_64::__m256d;
 
 /// `x(n)`, `x(n-1)` and `x(n+1)` of a [`PullLayouts`] step.
+#[cfg(target_arch = "x86_64")]
 type Pos = (*const f64, *const f64, *mut f64);
 
 /// How a [`Layout`] reads its rows and keeps a group's `x(n+1)` in AVX2
