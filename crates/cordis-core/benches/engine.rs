@@ -1854,6 +1854,9 @@ fn pull_layouts_mode(n: usize, threads: usize) {
         .flat_map(|w| [Layout::Pairs, Layout::Cached, Layout::Own, Layout::Mailbox].map(|l| (w, l)))
         .filter(|&(w, l)| layouts.run(1, 1, w, l).is_some())
         .collect();
+    if kinds.is_empty() {
+        println!("no AVX2 or AVX-512 on this CPU: no layout to time, cordis alone");
+    }
     // per kind and thread count (1, T), then cordis's
     let mut times = vec![[Vec::new(), Vec::new()]; kinds.len() + 1];
     let (mut sums, mut own_sums) = (Vec::new(), Vec::new());
