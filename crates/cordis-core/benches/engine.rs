@@ -1465,8 +1465,9 @@ impl PullLayouts {
                                                 )
                                             }
                                             Layout::Mailbox => {
-                                                let mail = turn(mail_at);
-                                                self.step_mailbox_avx2(g, pos, &Mailbox4(mail))
+                                                let (cur, prev, next) = turn(mail_at);
+                                                let mail = Mailbox4 { cur, prev, next };
+                                                self.step_mailbox_avx2(g, pos, &mail)
                                             }
                                         }
                                     }
@@ -1801,14 +1802,18 @@ impl Reads4 for Cached4<'_> {
 /// [`Layout::Mailbox`] in AVX2: the mailboxes of `x(n)`, `x(n-1)` and `x(n+1)`, eight `f64` a
 /// row each.
 #[cfg(target_arch = "x86_64")]
-struct Mailbox4((*mut f64, *mut f64, *mut f64));
+struct Mailbox4 {
+    cur: *const f64,
+    prev: *const f64,
+    next: *mut f64,
+}
 
 #[cfg(target_arch = "x86_64")]
 impl Reads4 for Mailbox4 {
     #[inline(always)]
     unsafe fn row(&self, r: usize, h: usize) -> (V4, V4) {
         use std::arch::x86_64::*;
-        let (mc, mp, _) = self.0;
+        let (mc, mp) = (self.cur, self.prev);
         // SAFETY: the caller's promise: each mailbox holds eight `f64` a row.
         unsafe {
             let e = 8 * r + 4 * h;
@@ -1828,7 +1833,7 @@ impl Reads4 for Mailbox4 {
             _mm256_storeu_pd(lanes.as_mut_ptr().add(4), xn[1]);
             for w in layouts.rows(g) {
                 for (&e, &x) in layouts.to[w].iter().zip(&lanes) {
-                    *self.0 .2.add(e as usize) = x;
+                    *self.next.add(e as usize) = x;
                 }
             }
         }
