@@ -1360,7 +1360,8 @@ impl PullLayouts {
     }
 
     /// Seconds for `steps` steps of `layout` in `width` on `threads` threads (each a consecutive
-    /// range of groups, a spin barrier after each step), and a checksum of the final positions'
+    /// range of groups of about equal rows, [`PullLayouts::share`]; a spin barrier after each
+    /// step), and a checksum of the final positions'
     /// bits; `None` where the CPU lacks `width`, or for a layout not written in it.
     fn run(
         &self,
@@ -1414,12 +1415,11 @@ impl PullLayouts {
             let pairs_at = pairs.each_mut().map(|p| Shared(p.as_mut_ptr()));
             let cache_at = Shared(cache.as_mut_ptr());
             let arrived = AtomicUsize::new(0);
-            let groups = self.ends.len();
             let t = Instant::now();
             std::thread::scope(|scope| {
                 for th in 0..threads {
                     let (pos_at, mail_at, arrived) = (&pos_at, &mail_at, &arrived);
-                    let own = groups * th / threads..groups * (th + 1) / threads;
+                    let own = self.share(th, threads);
                     scope.spawn(move || {
                         // (the whole `Shared`, not its field: a closure captures what it names)
                         let (cache_at, pairs_at) = (cache_at, pairs_at);
@@ -1487,6 +1487,19 @@ impl PullLayouts {
                 .fold(0u64, |h, x| h.rotate_left(5) ^ x.to_bits());
             Some((secs, sum))
         }
+    }
+
+    /// The groups thread `th` of `threads` steps: consecutive groups, the shares cut where the
+    /// rows before them are closest to equal parts of all the rows (the MAS are stored by degree,
+    /// so equal numbers of groups would give the last thread the most rows).
+    fn share(&self, th: usize, threads: usize) -> std::ops::Range<usize> {
+        let (groups, rows) = (self.ends.len(), self.ends.last().copied().unwrap_or(0));
+        let cut = |t: usize| match t {
+            0 => 0,
+            t if t == threads => groups,
+            t => self.ends.partition_point(|&e| e <= rows * t / threads),
+        };
+        cut(th)..cut(th + 1)
     }
 
     /// The rows of group `g`.
@@ -2315,7 +2328,9 @@ fn curves_mode() {
 /// two threads hand a counter to each other 2,000,000 times through one atomic (each waits,
 /// spinning, for the other's increment). Half the round trip is what one thread waits each time
 /// it reads a pair the other wrote in the step before; the random network's two-thread ratio
-/// follows it (docs/BENCHMARKS.md, fifty-eighth session).
+/// follows it (docs/BENCHMARKS.md, fifty-eighth session). Then, three times, what two threads
+/// give on arithmetic alone, with nothing shared (eight chains of a multiply and an add each): the
+/// most two vCPUs give any step, whatever it shares (seventy-second session).
 fn pingpong_mode() {
     use std::sync::atomic::{AtomicU64, Ordering};
     const TRIPS: u64 = 2_000_000;
@@ -2347,6 +2362,33 @@ fn pingpong_mode() {
         trip * 0.5e9,
         load_average()
     );
+    // arithmetic alone: eight chains of a multiply and an add, on one thread then on two
+    fn spin() -> f64 {
+        let mut a: [f64; 8] = std::array::from_fn(|i| 1.0 + i as f64 * 1e-9);
+        let (m, c) = (black_box(0.999_999_999), black_box(1e-9));
+        for _ in 0..50_000_000 {
+            for x in &mut a {
+                *x = *x * m + c;
+            }
+        }
+        a.iter().sum()
+    }
+    for _ in 0..3 {
+        let started = Instant::now();
+        black_box(spin());
+        let one = started.elapsed().as_secs_f64();
+        let started = Instant::now();
+        std::thread::scope(|s| {
+            s.spawn(|| black_box(spin()));
+            black_box(spin());
+        });
+        let two = started.elapsed().as_secs_f64();
+        println!(
+            "arithmetic alone: 1 thread {one:.3} s, 2 threads {two:.3} s for twice the work: \
+             ratio {:.2}",
+            2.0 * one / two
+        );
+    }
 }
 
 /// `ceiling signs`: how often the links of `random-lnl-long 10000` change the sign of their
