@@ -1036,17 +1036,27 @@ impl Reads {
         None
     }
 
-    /// Seconds for `steps` passes of [`Reads::gathered`] on `threads` threads, each over its own
-    /// share of the links, with no synchronisation at all between them (`None` without AVX-512).
-    fn gathered_on(&self, steps: u64, threads: usize) -> Option<f64> {
+    /// Seconds for `steps` passes of [`link_reads`] on `threads` threads, each over its own share
+    /// of the links, with no synchronisation at all between them.
+    fn reads_on(&self, steps: u64, threads: usize) -> f64 {
         let t = Instant::now();
-        let done = std::thread::scope(|scope| {
-            let handles: Vec<_> = (0..threads)
-                .map(|p| scope.spawn(move || black_box(self.gathered(steps, (p, threads)))))
-                .collect();
-            handles.into_iter().all(|h| h.join().unwrap().is_some())
+        std::thread::scope(|scope| {
+            for p in 0..threads {
+                let n = self.la.len();
+                let links = n * p / threads..n * (p + 1) / threads;
+                let (la, lb) = (&self.la[links.clone()], &self.lb[links]);
+                scope.spawn(move || {
+                    let mut acc = 0;
+                    for _ in 0..steps {
+                        // SAFETY: the ends are material indices, within `x` and `xp`, which
+                        // nothing writes.
+                        acc ^= unsafe { link_reads(la, lb, self.x.as_ptr(), self.xp.as_ptr()) };
+                    }
+                    black_box(acc)
+                });
+            }
         });
-        done.then(|| t.elapsed().as_secs_f64())
+        t.elapsed().as_secs_f64()
     }
 
     #[inline(always)]
@@ -1103,75 +1113,97 @@ unsafe fn gathered_reads(la: &[u32], lb: &[u32], x: *const f64, xp: *const f64) 
     _mm512_reduce_or_epi64(s) as u64
 }
 
-/// The least a parallel step must do on a network: the threads read both ends of their share of
-/// the links (gathered, as [`Reads::gathered`]), meet at a barrier, write the positions of their
-/// share of the masses (the next step's reads on the other threads must fetch them), and meet
-/// again: no force, no sum, no force buffer shared. Seconds for `steps` steps (`None` without
-/// AVX-512).
-fn exchange_on(reads: &Reads, masses: usize, steps: u64, threads: usize) -> Option<f64> {
-    use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+/// The bits of `x[a]`, `xp[a]`, `x[b]`, `xp[b]` of every link (ends `la`, `lb`; whole blocks of
+/// eight), XOR-ed: [`gathered_reads`] where the CPU has AVX-512F, else one load at a time.
+///
+/// # Safety
+/// Every end must be an index within the arrays `x` and `xp` point to, and nothing may write
+/// those arrays meanwhile.
+unsafe fn link_reads(la: &[u32], lb: &[u32], x: *const f64, xp: *const f64) -> u64 {
     #[cfg(target_arch = "x86_64")]
-    {
-        if !std::is_x86_feature_detected!("avx512f") {
-            return None;
-        }
-        let x: Vec<AtomicU64> = reads
-            .x
-            .iter()
-            .map(|v| AtomicU64::new(v.to_bits()))
-            .collect();
-        let xp: Vec<AtomicU64> = reads
-            .xp
-            .iter()
-            .map(|v| AtomicU64::new(v.to_bits()))
-            .collect();
-        let arrived = AtomicUsize::new(0);
-        // spin barrier: the `g`-th meeting is complete when `threads * g` threads have arrived
-        let meet = |g: usize| {
-            arrived.fetch_add(1, Ordering::AcqRel);
-            while arrived.load(Ordering::Acquire) < threads * g {
-                std::hint::spin_loop();
-            }
+    if std::is_x86_feature_detected!("avx512f") {
+        // SAFETY: the CPU has AVX-512F; the ends are the caller's promise.
+        return unsafe { gathered_reads(la, lb, x, xp) };
+    }
+    let whole = la.len().min(lb.len()) / 8 * 8;
+    let mut s = 0u64;
+    for (&a, &b) in la[..whole].iter().zip(&lb[..whole]) {
+        let (a, b) = (a as usize, b as usize);
+        // SAFETY: `a` and `b` are within both arrays, which nothing writes (the caller's
+        // promise).
+        s ^= unsafe {
+            ((*x.add(a)).to_bits() ^ (*xp.add(a)).to_bits())
+                ^ ((*x.add(b)).to_bits() ^ (*xp.add(b)).to_bits())
         };
-        let t = Instant::now();
-        std::thread::scope(|scope| {
-            for p in 0..threads {
-                let (x, xp, meet) = (&x, &xp, &meet);
-                let nl = reads.la.len();
-                let links = nl * p / threads..nl * (p + 1) / threads;
-                let mats = masses * p / threads..masses * (p + 1) / threads;
-                scope.spawn(move || {
-                    let (la, lb) = (&reads.la[links.clone()], &reads.lb[links]);
-                    let mut acc = 0u64;
-                    for step in 0..steps as usize {
-                        // SAFETY: the CPU has AVX-512F (checked above); the ends are material
-                        // indices, within `x` and `xp`, which nobody writes in this phase (the
-                        // barriers separate the phases).
-                        let (px, pxp) = (x.as_ptr().cast(), xp.as_ptr().cast());
-                        acc ^= unsafe { gathered_reads(la, lb, px, pxp) };
-                        meet(2 * step + 1);
-                        for i in mats.clone() {
-                            let v = x[i].load(Ordering::Relaxed);
-                            xp[i].store(v, Ordering::Relaxed);
-                            x[i].store(v ^ (acc & 1), Ordering::Relaxed);
-                        }
-                        meet(2 * step + 2);
-                    }
-                    black_box(acc);
-                });
-            }
-        });
-        Some(t.elapsed().as_secs_f64())
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let _ = (reads, masses, steps, threads);
-        None
-    }
+    s
 }
 
-/// `ceiling threads [N [T]]`: on a random network of N masses, the gathered reads of [`Reads`] on
-/// 1 and on T threads (no synchronisation: an upper bound on what threads can gain), next to
+/// How [`link_reads`] reads on this CPU, for the output.
+fn link_reads_are() -> &'static str {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx512f") {
+        return "gathered";
+    }
+    "one by one"
+}
+
+/// The least a parallel step must do on a network: the threads read both ends of their share of
+/// the links ([`link_reads`]), meet at a barrier, write the positions of their share of the
+/// masses (the next step's reads on the other threads must fetch them), and meet again: no
+/// force, no sum, no force buffer shared. Seconds for `steps` steps.
+fn exchange_on(reads: &Reads, masses: usize, steps: u64, threads: usize) -> f64 {
+    use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+    let x: Vec<AtomicU64> = reads
+        .x
+        .iter()
+        .map(|v| AtomicU64::new(v.to_bits()))
+        .collect();
+    let xp: Vec<AtomicU64> = reads
+        .xp
+        .iter()
+        .map(|v| AtomicU64::new(v.to_bits()))
+        .collect();
+    let arrived = AtomicUsize::new(0);
+    // spin barrier: the `g`-th meeting is complete when `threads * g` threads have arrived
+    let meet = |g: usize| {
+        arrived.fetch_add(1, Ordering::AcqRel);
+        while arrived.load(Ordering::Acquire) < threads * g {
+            std::hint::spin_loop();
+        }
+    };
+    let t = Instant::now();
+    std::thread::scope(|scope| {
+        for p in 0..threads {
+            let (x, xp, meet) = (&x, &xp, &meet);
+            let nl = reads.la.len();
+            let links = nl * p / threads..nl * (p + 1) / threads;
+            let mats = masses * p / threads..masses * (p + 1) / threads;
+            scope.spawn(move || {
+                let (la, lb) = (&reads.la[links.clone()], &reads.lb[links]);
+                let mut acc = 0u64;
+                for step in 0..steps as usize {
+                    // SAFETY: the ends are material indices, within `x` and `xp`, which
+                    // nobody writes in this phase (the barriers separate the phases).
+                    let (px, pxp) = (x.as_ptr().cast(), xp.as_ptr().cast());
+                    acc ^= unsafe { link_reads(la, lb, px, pxp) };
+                    meet(2 * step + 1);
+                    for i in mats.clone() {
+                        let v = x[i].load(Ordering::Relaxed);
+                        xp[i].store(v, Ordering::Relaxed);
+                        x[i].store(v ^ (acc & 1), Ordering::Relaxed);
+                    }
+                    meet(2 * step + 2);
+                }
+                black_box(acc);
+            });
+        }
+    });
+    t.elapsed().as_secs_f64()
+}
+
+/// `ceiling threads [N [T]]`: on a random network of N masses, the reads of [`link_reads`] on 1
+/// and on T threads (no synchronisation: an upper bound on what threads can gain), next to
 /// cordis on 1 and T threads.
 fn floor_threads_mode(n: usize, threads: usize) {
     let work = work();
@@ -1188,23 +1220,10 @@ fn floor_threads_mode(n: usize, threads: usize) {
     let (mut e1, mut en) = (Vec::new(), Vec::new());
     let m = model.masses;
     for _ in 0..RUNS {
-        let (Some(a), Some(b)) = (
-            reads.gathered_on(steps, 1),
-            reads.gathered_on(steps, threads),
-        ) else {
-            println!("no AVX-512 on this CPU: no gathered reads to time");
-            return;
-        };
-        r1.push(a);
-        rn.push(b);
-        let (Some(a), Some(b)) = (
-            exchange_on(&reads, m, steps, 1),
-            exchange_on(&reads, m, steps, threads),
-        ) else {
-            return;
-        };
-        e1.push(a);
-        en.push(b);
+        r1.push(reads.reads_on(steps, 1));
+        rn.push(reads.reads_on(steps, threads));
+        e1.push(exchange_on(&reads, m, steps, 1));
+        en.push(exchange_on(&reads, m, steps, threads));
         timed(&mut c1, || run_cordis(&mut one, black_box(steps), &mut buf));
         timed(&mut cn, || {
             run_cordis(&mut many, black_box(steps), &mut buf)
@@ -1214,11 +1233,12 @@ fn floor_threads_mode(n: usize, threads: usize) {
     let (e1, en) = (median(e1), median(en));
     println!(
         "{}: {work:.3e} mass-steps per run, median of {RUNS}; load average {}\n\
-         reads only (gathered): 1 thread {:.3e}, {threads} threads {:.3e}: x{:.2}\n\
+         {:<23}1 thread {:.3e}, {threads} threads {:.3e}: x{:.2}\n\
          reads + writes:        1 thread {:.3e}, {threads} threads {:.3e}: x{:.2}\n\
          cordis:                1 thread {:.3e}, {threads} threads {:.3e}: x{:.2}",
         model.name,
         load_average(),
+        format!("reads only ({}):", link_reads_are()),
         mass_steps / r1,
         mass_steps / rn,
         r1 / rn,
