@@ -1381,8 +1381,8 @@ impl PullLayouts {
 
     /// Seconds for `steps` steps of `layout` in `width` on `threads` threads (each a consecutive
     /// range of groups of about equal rows, [`PullLayouts::share`]; a spin barrier after each
-    /// step), and a checksum of the final positions'
-    /// bits; `None` where the CPU lacks `width`, or for a layout not written in it.
+    /// step), and a checksum of the final positions' bits; `None` where the CPU lacks `width`, or
+    /// for a layout not written in it.
     fn run(
         &self,
         steps: usize,
