@@ -1260,8 +1260,9 @@ fn floor_threads_mode(n: usize, threads: usize) {
 /// ([`Layout::Pairs`] and [`Layout::Cached`]); with AVX2 two of four lanes, as the engine's AVX2
 /// pull step, in every [`Layout`].
 ///
-/// Every layout but [`Layout::Own`] computes the same operations on the same operands, so the same
-/// bits (checked).
+/// Every layout but [`Layout::Own`] and [`Layout::Summed`] computes the same operations on the same
+/// operands, so the same bits (checked); `summed` reorders each MAS's sum (its distance from the
+/// others' positions is printed).
 struct PullLayouts {
     /// MAS (the buffers hold whole groups: the last group's slots past `n` are padding)
     n: usize,
@@ -1299,6 +1300,19 @@ enum Layout {
     /// `v(n)` is the same subtraction; each MAS, once its `x(n+1)` is computed, writes it to every
     /// place that reads it (a third mailbox, the three taking turns as the positions do).
     Mailbox,
+    /// [`Layout::Pairs`]'s reads and each link's differences `x - xj`, `v - vj` (the reference's
+    /// operands), but summed before `K` and `Z` multiply them, once a group: `F = -(K Σd + Z Σdv)`,
+    /// a sum reordered (not the reference's bits). A row keeps its pairs as loaded, `[x0 v0 | x2
+    /// v2]` and `[x1 v1 | x3 v3]`, and takes them from the group's own, interleaved the same way,
+    /// so that it splits nothing: two subtractions and two additions a half row, against two
+    /// unpacks, two subtractions, two multiplications and two additions.
+    Summed,
+    /// Pairs of `x(n)` and `x(n-1)` (not `v(n)`), and no other buffer: a row computes each other
+    /// end's `v(n) = x(n) - x(n-1)` (the reference's operands: the same bits), a group reads its
+    /// own `x(n)` and `x(n-1)` from its pairs and writes `x(n+1)` and `x(n)` to the next, so the
+    /// step's buffers are two pairs and the rows (two fifths less than the others' five at 10,000
+    /// MAS, in the L2 cache where the others are not).
+    Twins,
 }
 
 /// The vector width a [`PullLayouts`] step is written in.
@@ -1381,15 +1395,15 @@ impl PullLayouts {
 
     /// Seconds for `steps` steps of `layout` in `width` on `threads` threads (each a consecutive
     /// range of groups of about equal rows, [`PullLayouts::share`]; a spin barrier after each
-    /// step), and a checksum of the final positions' bits; `None` where the CPU lacks `width`, or
-    /// for a layout not written in it.
+    /// step), and the final positions (whole groups); `None` where the CPU lacks `width`, or for a
+    /// layout not written in it.
     fn run(
         &self,
         steps: usize,
         threads: usize,
         width: Width,
         layout: Layout,
-    ) -> Option<(f64, u64)> {
+    ) -> Option<(f64, Vec<f64>)> {
         #[cfg(not(target_arch = "x86_64"))]
         {
             let _ = (steps, threads, width, layout);
@@ -1413,7 +1427,11 @@ impl PullLayouts {
             let x0 = |i: usize| (i % 7) as f64 * 1e-3;
             // x(n) in pos[0], x(n-1) = 0 in pos[2]
             let mut pos: Vec<Vec<f64>> = vec![(0..n).map(x0).collect(), vec![0.0; n], vec![0.0; n]];
-            let pairs0: Vec<f64> = (0..n).flat_map(|i| [x0(i), x0(i)]).collect();
+            // (`x(n)` and `v(n)`, or for the twins `x(n)` and `x(n-1)`)
+            let twins = layout == Layout::Twins;
+            let pairs0: Vec<f64> = (0..n)
+                .flat_map(|i| [x0(i), if twins { 0.0 } else { x0(i) }])
+                .collect();
             let mut pairs = [pairs0.clone(), pairs0];
             let mut cache = vec![0.0; 8 * self.at.len()];
             // (the mailboxes as the positions: `x(n)` in 0, `x(n-1)` = 0 in 2)
@@ -1484,6 +1502,14 @@ impl PullLayouts {
                                                     &Cached4 { at, cur, cache },
                                                 )
                                             }
+                                            Layout::Twins => {
+                                                let pairs = &Pairs4 { at, pc, pn };
+                                                self.step_twins_avx2(g, pairs)
+                                            }
+                                            Layout::Summed => {
+                                                let pairs = &Pairs4 { at, pc, pn };
+                                                self.step_summed_avx2(g, pos, pairs)
+                                            }
                                             Layout::Mailbox => {
                                                 let (cur, prev, next) = turn(mail_at);
                                                 let mail = Mailbox4 { cur, prev, next };
@@ -1502,10 +1528,11 @@ impl PullLayouts {
                 }
             });
             let secs = t.elapsed().as_secs_f64();
-            let sum = pos[steps % 3]
-                .iter()
-                .fold(0u64, |h, x| h.rotate_left(5) ^ x.to_bits());
-            Some((secs, sum))
+            if twins {
+                let last = pairs[steps % 2].iter().step_by(2).copied().collect();
+                return Some((secs, last));
+            }
+            Some((secs, pos.swap_remove(steps % 3)))
         }
     }
 
@@ -1655,6 +1682,111 @@ impl PullLayouts {
         unsafe { self.step_avx2(groups, pos, reads) }
     }
 
+    /// [`Layout::Twins`]: [`PullLayouts::step_avx2`]'s step on pairs of `x(n)` and `x(n-1)`.
+    ///
+    /// # Safety
+    /// As [`PullLayouts::step_avx2`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    unsafe fn step_twins_avx2(&self, groups: Range<usize>, reads: &Pairs4) {
+        use std::arch::x86_64::*;
+        // SAFETY (the whole body): the caller's promise.
+        unsafe {
+            let inv = _mm256_set1_pd(1.0 / M);
+            for g in groups {
+                // `[x0 p0 x1 p1]`, `[x2 p2 x3 p3]` of each half, `p` for `x(n-1)`
+                let own =
+                    |h: usize, i: usize| _mm256_loadu_pd(reads.pc.add(16 * g + 8 * h + 4 * i));
+                let mut x = [_mm256_setzero_pd(); 2];
+                let mut xp = [_mm256_setzero_pd(); 2];
+                for h in 0..2 {
+                    let (a, b) = (own(h, 0), own(h, 1));
+                    let (lo, hi) = (
+                        _mm256_permute2f128_pd::<0x20>(a, b),
+                        _mm256_permute2f128_pd::<0x31>(a, b),
+                    );
+                    (x[h], xp[h]) = (_mm256_unpacklo_pd(lo, hi), _mm256_unpackhi_pd(lo, hi));
+                }
+                let v = [_mm256_sub_pd(x[0], xp[0]), _mm256_sub_pd(x[1], xp[1])];
+                let mut f = [_mm256_setzero_pd(); 2];
+                for r in self.rows(g) {
+                    for h in 0..2 {
+                        let (xj, xjp) = reads.row(r, h);
+                        f[h] = Self::term_avx2(f[h], x[h], v[h], xj, _mm256_sub_pd(xj, xjp));
+                    }
+                }
+                for h in 0..2 {
+                    let sum = _mm256_sub_pd(_mm256_add_pd(x[h], x[h]), xp[h]);
+                    let xn = _mm256_add_pd(sum, _mm256_mul_pd(f[h], inv));
+                    let (a, b) = (_mm256_unpacklo_pd(xn, x[h]), _mm256_unpackhi_pd(xn, x[h]));
+                    let p = reads.pn.add(16 * g + 8 * h);
+                    _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(a, b));
+                    _mm256_storeu_pd(p.add(4), _mm256_permute2f128_pd::<0x31>(a, b));
+                }
+            }
+        }
+    }
+
+    /// [`Layout::Summed`]: [`PullLayouts::step_avx2`]'s step with each half row's differences
+    /// summed as loaded, split and multiplied once a group.
+    ///
+    /// # Safety
+    /// As [`PullLayouts::step_avx2`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    unsafe fn step_summed_avx2(
+        &self,
+        groups: Range<usize>,
+        (cur, prev, next): Pos,
+        reads: &Pairs4,
+    ) {
+        use std::arch::x86_64::*;
+        // SAFETY (the whole body): the caller's promise.
+        unsafe {
+            let inv = _mm256_set1_pd(1.0 / M);
+            let (k, z) = (_mm256_set1_pd(K), _mm256_set1_pd(Z));
+            let at = |b: *const f64, g: usize, h: usize| _mm256_loadu_pd(b.add(8 * g + 4 * h));
+            for g in groups {
+                let (x, xp) = (
+                    [at(cur, g, 0), at(cur, g, 1)],
+                    [at(prev, g, 0), at(prev, g, 1)],
+                );
+                let v = [_mm256_sub_pd(x[0], xp[0]), _mm256_sub_pd(x[1], xp[1])];
+                // the group's own pairs as a row's are loaded: `[x0 v0 | x2 v2]`, `[x1 v1 | x3 v3]`
+                let own = [0, 1].map(|h| {
+                    [
+                        _mm256_unpacklo_pd(x[h], v[h]),
+                        _mm256_unpackhi_pd(x[h], v[h]),
+                    ]
+                });
+                let mut d = [[_mm256_setzero_pd(); 2]; 2];
+                for r in self.rows(g) {
+                    for h in 0..2 {
+                        let (a, b) = reads.loaded(r, h);
+                        d[h][0] = _mm256_add_pd(d[h][0], _mm256_sub_pd(own[h][0], a));
+                        d[h][1] = _mm256_add_pd(d[h][1], _mm256_sub_pd(own[h][1], b));
+                    }
+                }
+                let (mut xn, mut vn) = ([_mm256_setzero_pd(); 2], [_mm256_setzero_pd(); 2]);
+                for h in 0..2 {
+                    let (sd, sdv) = (
+                        _mm256_unpacklo_pd(d[h][0], d[h][1]),
+                        _mm256_unpackhi_pd(d[h][0], d[h][1]),
+                    );
+                    let g_sum = _mm256_add_pd(_mm256_mul_pd(k, sd), _mm256_mul_pd(z, sdv));
+                    let f = _mm256_sub_pd(_mm256_setzero_pd(), g_sum);
+                    let sum = _mm256_sub_pd(_mm256_add_pd(x[h], x[h]), xp[h]);
+                    xn[h] = _mm256_add_pd(sum, _mm256_mul_pd(f, inv));
+                    vn[h] = _mm256_sub_pd(xn[h], x[h]);
+                    _mm256_storeu_pd(next.add(8 * g + 4 * h), xn[h]);
+                }
+                reads.wrote(self, g, xn, vn);
+            }
+        }
+    }
+
     /// A step of `reads`' layout in AVX2, a group as two vectors of four lanes, as the engine's
     /// AVX2 pull step: the rows' terms, then `x(n+1)` into `next` and what the layout keeps of it.
     ///
@@ -1769,19 +1901,35 @@ struct Pairs4<'a> {
 }
 
 #[cfg(target_arch = "x86_64")]
-impl Reads4 for Pairs4<'_> {
+impl Pairs4<'_> {
+    /// `[x0 v0 | x2 v2]` and `[x1 v1 | x3 v3]` of the other ends of lanes `4 h..4 h + 4` of row
+    /// `r`, as loaded.
+    ///
+    /// # Safety
+    /// The CPU has AVX2; every slot of `at[r]` is a pair of `pc`.
     #[inline(always)]
-    unsafe fn row(&self, r: usize, h: usize) -> (V4, V4) {
+    unsafe fn loaded(&self, r: usize, h: usize) -> (V4, V4) {
         use std::arch::x86_64::*;
-        // SAFETY: the caller's promise: every slot of `at[r]` is a pair of `pc`.
+        // SAFETY: the caller's promise.
         unsafe {
             let at = &self.at[r];
             let p = |j: usize| _mm_loadu_pd(self.pc.add(2 * at[4 * h + j] as usize));
             let two =
                 |a: usize, b: usize| _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(p(a)), p(b));
-            // `[x0 v0 | x2 v2]` and `[x1 v1 | x3 v3]` of the half's lanes, split as the engine's
-            // AVX2 `pairs` splits them
-            let (a, b) = (two(0, 2), two(1, 3));
+            (two(0, 2), two(1, 3))
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Reads4 for Pairs4<'_> {
+    #[inline(always)]
+    unsafe fn row(&self, r: usize, h: usize) -> (V4, V4) {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller's promise.
+        unsafe {
+            // split as the engine's AVX2 `pairs` splits them
+            let (a, b) = self.loaded(r, h);
             (_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b))
         }
     }
@@ -1889,7 +2037,17 @@ fn pull_layouts_mode(n: usize, threads: usize) {
     let mut buf = vec![0.0; block() * one.channels()];
     let kinds: Vec<(Width, Layout)> = [Width::Avx512, Width::Avx2]
         .into_iter()
-        .flat_map(|w| [Layout::Pairs, Layout::Cached, Layout::Own, Layout::Mailbox].map(|l| (w, l)))
+        .flat_map(|w| {
+            [
+                Layout::Pairs,
+                Layout::Cached,
+                Layout::Own,
+                Layout::Mailbox,
+                Layout::Summed,
+                Layout::Twins,
+            ]
+            .map(|l| (w, l))
+        })
         .filter(|&(w, l)| layouts.run(1, 1, w, l).is_some())
         .collect();
     if kinds.is_empty() {
@@ -1897,17 +2055,32 @@ fn pull_layouts_mode(n: usize, threads: usize) {
     }
     // per kind and thread count (1, T), then cordis's
     let mut times = vec![[Vec::new(), Vec::new()]; kinds.len() + 1];
-    let (mut sums, mut own_sums) = (Vec::new(), Vec::new());
+    let (mut sums, mut own_sums, mut summed_sums) = (Vec::new(), Vec::new(), Vec::new());
+    let hash = |xs: &[f64]| xs.iter().fold(0u64, |h, x| h.rotate_left(5) ^ x.to_bits());
+    // (the pairs' last positions, and the largest difference of `summed`'s from them, with the
+    // pairs' largest magnitude)
+    let (mut pairs_x, mut summed_off) = (Vec::new(), (0.0f64, 0.0f64));
     for _ in 0..RUNS {
         for (i, &(width, layout)) in kinds.iter().enumerate() {
             for (t, count) in [1, threads].into_iter().enumerate() {
-                let (secs, sum) =
+                let (secs, xs) =
                     (layouts.run(steps, count, width, layout)).expect("the width was found above");
                 times[i][t].push(secs);
-                if layout == Layout::Own {
-                    own_sums.push(sum)
-                } else {
-                    sums.push(sum)
+                match layout {
+                    Layout::Own => own_sums.push(hash(&xs)),
+                    Layout::Summed => {
+                        summed_sums.push(hash(&xs));
+                        let off = xs
+                            .iter()
+                            .zip(&pairs_x)
+                            .map(|(a, b): (&f64, &f64)| (a - b).abs());
+                        let peak = pairs_x.iter().map(|x: &f64| x.abs()).fold(0.0, f64::max);
+                        summed_off = (summed_off.0.max(off.fold(0.0, f64::max)), peak);
+                    }
+                    _ => {
+                        sums.push(hash(&xs));
+                        pairs_x = xs;
+                    }
                 }
             }
         }
@@ -1922,7 +2095,8 @@ fn pull_layouts_mode(n: usize, threads: usize) {
     let same = |s: &[u64]| s.iter().all(|&x| x == s[0]);
     println!(
         "{} ({} MAS, {} rows): {work:.3e} mass-steps per run, median of {RUNS}; load average \
-         {}; the layouts' bits {} (`own` {})\n\
+         {}; the layouts' bits {} (`own` {}, `summed` {}, at most {:.2e} from the others' \
+         positions, whose largest is {:.2e})\n\
          layout           1 thread  {threads} threads   ratio  1 thread / cordis's",
         model.name,
         layouts.n,
@@ -1934,6 +2108,13 @@ fn pull_layouts_mode(n: usize, threads: usize) {
         } else {
             "DIFFERENT between runs"
         },
+        if same(&summed_sums) {
+            "the same in every run"
+        } else {
+            "DIFFERENT between runs"
+        },
+        summed_off.0,
+        summed_off.1,
         work = work as f64
     );
     let e1 = median(times[kinds.len()][0].clone());
