@@ -1260,9 +1260,10 @@ fn floor_threads_mode(n: usize, threads: usize) {
 /// ([`Layout::Pairs`] and [`Layout::Cached`]); with AVX2 two of four lanes, as the engine's AVX2
 /// pull step, in every [`Layout`].
 ///
-/// Every layout but [`Layout::Own`] and [`Layout::Summed`] computes the same operations on the same
-/// operands, so the same bits (checked); `summed` reorders each MAS's sum (its distance from the
-/// others' positions is printed).
+/// Every layout but [`Layout::Own`], [`Layout::Summed`], [`Layout::Lean`] and
+/// [`Layout::LeanTwins`] computes the same operations on the same operands, so the same bits
+/// (checked); the last three reorder each MAS's sum, `summed` and `lean` the same way (their
+/// distance from the others' positions is printed).
 struct PullLayouts {
     /// MAS (the buffers hold whole groups: the last group's slots past `n` are padding)
     n: usize,
@@ -1272,6 +1273,8 @@ struct PullLayouts {
     ends: Vec<usize>,
     /// per row: the lanes' own slots ([`Layout::Own`])
     own: Vec<[u32; 8]>,
+    /// `at` in bytes into the pair buffers ([`Layout::Lean`])
+    bytes: Vec<[u32; 8]>,
     /// per row of group `g`: where each lane's MAS writes its `x(n+1)` in the mailbox, an index
     /// `8 r + j` (row `r`, lane `j`) that reads it ([`Layout::Mailbox`]); each MAS of the group
     /// has one such *write row* for each of the group's rows: it is read once for each of its
@@ -1307,12 +1310,21 @@ enum Layout {
     /// so that it splits nothing: two subtractions and two additions a half row, against two
     /// unpacks, two subtractions, two multiplications and two additions.
     Summed,
+    /// [`Layout::Summed`] with each row's offsets in bytes, loaded one by one into the address
+    /// (no shift, as the engine's offsets are bytes): the fewest instructions a row can have
+    /// under the rules, an offset and a 16-byte load a lane and two operations a pair.
+    Lean,
     /// Pairs of `x(n)` and `x(n-1)` (not `v(n)`), and no other buffer: a row computes each other
     /// end's `v(n) = x(n) - x(n-1)` (the reference's operands: the same bits), a group reads its
     /// own `x(n)` and `x(n-1)` from its pairs and writes `x(n+1)` and `x(n)` to the next, so the
     /// step's buffers are two pairs and the rows (two fifths less than the others' five at 10,000
     /// MAS, in the L2 cache where the others are not).
     Twins,
+    /// [`Layout::Lean`]'s rows on [`Layout::Twins`]'s pairs: the fewest instructions and the
+    /// fewest bytes. A row sums each pair's differences `x - xj` and `x(n-1) - xj(n-1)` as
+    /// loaded, and a group's `Σdv` is `Σd - Σdp` (a reordering of the reference's `(x - x') -
+    /// (xj - xj')`, so not its bits, nor summed's).
+    LeanTwins,
 }
 
 /// The vector width a [`PullLayouts`] step is written in.
@@ -1384,11 +1396,13 @@ impl PullLayouts {
             to.extend((0..end - start).map(|w| std::array::from_fn(|j| lanes[j][w])));
             start = end;
         }
+        let bytes = at.iter().map(|row| row.map(|o| 16 * o)).collect();
         PullLayouts {
             n,
             at,
             ends: bounds,
             own,
+            bytes,
             to,
         }
     }
@@ -1428,7 +1442,7 @@ impl PullLayouts {
             // x(n) in pos[0], x(n-1) = 0 in pos[2]
             let mut pos: Vec<Vec<f64>> = vec![(0..n).map(x0).collect(), vec![0.0; n], vec![0.0; n]];
             // (`x(n)` and `v(n)`, or for the twins `x(n)` and `x(n-1)`)
-            let twins = layout == Layout::Twins;
+            let twins = matches!(layout, Layout::Twins | Layout::LeanTwins);
             let pairs0: Vec<f64> = (0..n)
                 .flat_map(|i| [x0(i), if twins { 0.0 } else { x0(i) }])
                 .collect();
@@ -1506,9 +1520,19 @@ impl PullLayouts {
                                                 let pairs = &Pairs4 { at, pc, pn };
                                                 self.step_twins_avx2(g, pairs)
                                             }
+                                            Layout::LeanTwins => {
+                                                let at = &self.bytes;
+                                                let pairs = &Pairs4 { at, pc, pn };
+                                                self.step_lean_twins_avx2(g, pairs)
+                                            }
                                             Layout::Summed => {
                                                 let pairs = &Pairs4 { at, pc, pn };
                                                 self.step_summed_avx2(g, pos, pairs)
+                                            }
+                                            Layout::Lean => {
+                                                let at = &self.bytes;
+                                                let pairs = &Pairs4 { at, pc, pn };
+                                                self.step_lean_avx2(g, pos, pairs)
                                             }
                                             Layout::Mailbox => {
                                                 let (cur, prev, next) = turn(mail_at);
@@ -1728,15 +1752,94 @@ impl PullLayouts {
         }
     }
 
-    /// [`Layout::Summed`]: [`PullLayouts::step_avx2`]'s step with each half row's differences
-    /// summed as loaded, split and multiplied once a group.
+    /// [`Layout::LeanTwins`]: [`PullLayouts::step_twins_avx2`]'s pairs, each row's differences
+    /// summed as loaded, the offsets in bytes.
+    ///
+    /// # Safety
+    /// As [`PullLayouts::step_avx2`] (`reads.at` in bytes).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    unsafe fn step_lean_twins_avx2(&self, groups: Range<usize>, reads: &Pairs4) {
+        use std::arch::x86_64::*;
+        // SAFETY (the whole body): the caller's promise.
+        unsafe {
+            let inv = _mm256_set1_pd(1.0 / M);
+            let (k, z) = (_mm256_set1_pd(K), _mm256_set1_pd(Z));
+            for g in groups {
+                // `[x0 p0 x1 p1]`, `[x2 p2 x3 p3]` of each half, `p` for `x(n-1)`, then as a
+                // row's are loaded: `[x0 p0 | x2 p2]`, `[x1 p1 | x3 p3]`
+                let mem =
+                    |h: usize, i: usize| _mm256_loadu_pd(reads.pc.add(16 * g + 8 * h + 4 * i));
+                let own = [0, 1].map(|h| {
+                    let (a, b) = (mem(h, 0), mem(h, 1));
+                    [
+                        _mm256_permute2f128_pd::<0x20>(a, b),
+                        _mm256_permute2f128_pd::<0x31>(a, b),
+                    ]
+                });
+                let mut d = [[_mm256_setzero_pd(); 2]; 2];
+                for r in self.rows(g) {
+                    for h in 0..2 {
+                        let (a, b) = reads.loaded::<true>(r, h);
+                        d[h][0] = _mm256_add_pd(d[h][0], _mm256_sub_pd(own[h][0], a));
+                        d[h][1] = _mm256_add_pd(d[h][1], _mm256_sub_pd(own[h][1], b));
+                    }
+                }
+                for h in 0..2 {
+                    let [lo, hi] = own[h];
+                    let (x, xp) = (_mm256_unpacklo_pd(lo, hi), _mm256_unpackhi_pd(lo, hi));
+                    let (sd, sdp) = (
+                        _mm256_unpacklo_pd(d[h][0], d[h][1]),
+                        _mm256_unpackhi_pd(d[h][0], d[h][1]),
+                    );
+                    let sdv = _mm256_sub_pd(sd, sdp);
+                    let g_sum = _mm256_add_pd(_mm256_mul_pd(k, sd), _mm256_mul_pd(z, sdv));
+                    let f = _mm256_sub_pd(_mm256_setzero_pd(), g_sum);
+                    let sum = _mm256_sub_pd(_mm256_add_pd(x, x), xp);
+                    let xn = _mm256_add_pd(sum, _mm256_mul_pd(f, inv));
+                    let (a, b) = (_mm256_unpacklo_pd(xn, x), _mm256_unpackhi_pd(xn, x));
+                    let p = reads.pn.add(16 * g + 8 * h);
+                    _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(a, b));
+                    _mm256_storeu_pd(p.add(4), _mm256_permute2f128_pd::<0x31>(a, b));
+                }
+            }
+        }
+    }
+
+    /// [`Layout::Summed`]: [`PullLayouts::step_summed_as`] of slots.
     ///
     /// # Safety
     /// As [`PullLayouts::step_avx2`].
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     #[inline(never)]
-    unsafe fn step_summed_avx2(
+    unsafe fn step_summed_avx2(&self, groups: Range<usize>, pos: Pos, reads: &Pairs4) {
+        // SAFETY: the caller's promise.
+        unsafe { self.step_summed_as::<false>(groups, pos, reads) }
+    }
+
+    /// [`Layout::Lean`]: [`PullLayouts::step_summed_as`] of bytes (`reads.at` in bytes).
+    ///
+    /// # Safety
+    /// As [`PullLayouts::step_avx2`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    unsafe fn step_lean_avx2(&self, groups: Range<usize>, pos: Pos, reads: &Pairs4) {
+        // SAFETY: the caller's promise.
+        unsafe { self.step_summed_as::<true>(groups, pos, reads) }
+    }
+
+    /// [`PullLayouts::step_avx2`]'s step with each half row's differences summed as loaded,
+    /// split and multiplied once a group; `reads.at` in bytes where `BYTES`, else slots.
+    ///
+    /// # Safety
+    /// As [`PullLayouts::step_avx2`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn step_summed_as<const BYTES: bool>(
         &self,
         groups: Range<usize>,
         (cur, prev, next): Pos,
@@ -1764,7 +1867,7 @@ impl PullLayouts {
                 let mut d = [[_mm256_setzero_pd(); 2]; 2];
                 for r in self.rows(g) {
                     for h in 0..2 {
-                        let (a, b) = reads.loaded(r, h);
+                        let (a, b) = reads.loaded::<BYTES>(r, h);
                         d[h][0] = _mm256_add_pd(d[h][0], _mm256_sub_pd(own[h][0], a));
                         d[h][1] = _mm256_add_pd(d[h][1], _mm256_sub_pd(own[h][1], b));
                     }
@@ -1903,17 +2006,24 @@ struct Pairs4<'a> {
 #[cfg(target_arch = "x86_64")]
 impl Pairs4<'_> {
     /// `[x0 v0 | x2 v2]` and `[x1 v1 | x3 v3]` of the other ends of lanes `4 h..4 h + 4` of row
-    /// `r`, as loaded.
+    /// `r`, as loaded; `at` in bytes where `BYTES`, else slots.
     ///
     /// # Safety
-    /// The CPU has AVX2; every slot of `at[r]` is a pair of `pc`.
+    /// The CPU has AVX2; every entry of `at[r]` is (the offset of) a pair of `pc`.
     #[inline(always)]
-    unsafe fn loaded(&self, r: usize, h: usize) -> (V4, V4) {
+    unsafe fn loaded<const BYTES: bool>(&self, r: usize, h: usize) -> (V4, V4) {
         use std::arch::x86_64::*;
         // SAFETY: the caller's promise.
         unsafe {
             let at = &self.at[r];
-            let p = |j: usize| _mm_loadu_pd(self.pc.add(2 * at[4 * h + j] as usize));
+            let p = |j: usize| {
+                let o = at[4 * h + j] as usize;
+                _mm_loadu_pd(if BYTES {
+                    self.pc.cast::<u8>().add(o).cast::<f64>()
+                } else {
+                    self.pc.add(2 * o)
+                })
+            };
             let two =
                 |a: usize, b: usize| _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(p(a)), p(b));
             (two(0, 2), two(1, 3))
@@ -1929,7 +2039,7 @@ impl Reads4 for Pairs4<'_> {
         // SAFETY: the caller's promise.
         unsafe {
             // split as the engine's AVX2 `pairs` splits them
-            let (a, b) = self.loaded(r, h);
+            let (a, b) = self.loaded::<false>(r, h);
             (_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b))
         }
     }
@@ -2044,7 +2154,9 @@ fn pull_layouts_mode(n: usize, threads: usize) {
                 Layout::Own,
                 Layout::Mailbox,
                 Layout::Summed,
+                Layout::Lean,
                 Layout::Twins,
+                Layout::LeanTwins,
             ]
             .map(|l| (w, l))
         })
@@ -2056,6 +2168,7 @@ fn pull_layouts_mode(n: usize, threads: usize) {
     // per kind and thread count (1, T), then cordis's
     let mut times = vec![[Vec::new(), Vec::new()]; kinds.len() + 1];
     let (mut sums, mut own_sums, mut summed_sums) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut lean_twins_sums, mut lean_twins_off) = (Vec::new(), 0.0f64);
     let hash = |xs: &[f64]| xs.iter().fold(0u64, |h, x| h.rotate_left(5) ^ x.to_bits());
     // (the pairs' last positions, and the largest difference of `summed`'s from them, with the
     // pairs' largest magnitude)
@@ -2068,7 +2181,12 @@ fn pull_layouts_mode(n: usize, threads: usize) {
                 times[i][t].push(secs);
                 match layout {
                     Layout::Own => own_sums.push(hash(&xs)),
-                    Layout::Summed => {
+                    Layout::LeanTwins => {
+                        lean_twins_sums.push(hash(&xs));
+                        let off = xs.iter().zip(&pairs_x).map(|(a, b)| (a - b).abs());
+                        lean_twins_off = lean_twins_off.max(off.fold(0.0, f64::max));
+                    }
+                    Layout::Summed | Layout::Lean => {
                         summed_sums.push(hash(&xs));
                         let off = xs
                             .iter()
@@ -2093,28 +2211,29 @@ fn pull_layouts_mode(n: usize, threads: usize) {
         });
     }
     let same = |s: &[u64]| s.iter().all(|&x| x == s[0]);
+    let each = |s: &[u64]| {
+        if same(s) {
+            "the same in every run"
+        } else {
+            "DIFFERENT between runs"
+        }
+    };
     println!(
         "{} ({} MAS, {} rows): {work:.3e} mass-steps per run, median of {RUNS}; load average \
-         {}; the layouts' bits {} (`own` {}, `summed` {}, at most {:.2e} from the others' \
-         positions, whose largest is {:.2e})\n\
+         {}; the layouts' bits {} (`own` {}, `summed` and `lean` {}, at most {:.2e} from the others' \
+         positions, whose largest is {:.2e}; `leantwins` {}, at most {:.2e} from them)\n\
          layout           1 thread  {threads} threads   ratio  1 thread / cordis's",
         model.name,
         layouts.n,
         layouts.at.len(),
         load_average(),
         if same(&sums) { "the same" } else { "DIFFERENT" },
-        if same(&own_sums) {
-            "the same in every run"
-        } else {
-            "DIFFERENT between runs"
-        },
-        if same(&summed_sums) {
-            "the same in every run"
-        } else {
-            "DIFFERENT between runs"
-        },
+        each(&own_sums),
+        each(&summed_sums),
         summed_off.0,
         summed_off.1,
+        each(&lean_twins_sums),
+        lean_twins_off,
         work = work as f64
     );
     let e1 = median(times[kinds.len()][0].clone());
