@@ -1719,17 +1719,10 @@ impl PullLayouts {
         unsafe {
             let inv = _mm256_set1_pd(1.0 / M);
             for g in groups {
-                // `[x0 p0 x1 p1]`, `[x2 p2 x3 p3]` of each half, `p` for `x(n-1)`
-                let own =
-                    |h: usize, i: usize| _mm256_loadu_pd(reads.pc.add(16 * g + 8 * h + 4 * i));
                 let mut x = [_mm256_setzero_pd(); 2];
                 let mut xp = [_mm256_setzero_pd(); 2];
                 for h in 0..2 {
-                    let (a, b) = (own(h, 0), own(h, 1));
-                    let (lo, hi) = (
-                        _mm256_permute2f128_pd::<0x20>(a, b),
-                        _mm256_permute2f128_pd::<0x31>(a, b),
-                    );
+                    let (lo, hi) = reads.twins_own(g, h);
                     (x[h], xp[h]) = (_mm256_unpacklo_pd(lo, hi), _mm256_unpackhi_pd(lo, hi));
                 }
                 let v = [_mm256_sub_pd(x[0], xp[0]), _mm256_sub_pd(x[1], xp[1])];
@@ -1743,10 +1736,7 @@ impl PullLayouts {
                 for h in 0..2 {
                     let sum = _mm256_sub_pd(_mm256_add_pd(x[h], x[h]), xp[h]);
                     let xn = _mm256_add_pd(sum, _mm256_mul_pd(f[h], inv));
-                    let (a, b) = (_mm256_unpacklo_pd(xn, x[h]), _mm256_unpackhi_pd(xn, x[h]));
-                    let p = reads.pn.add(16 * g + 8 * h);
-                    _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(a, b));
-                    _mm256_storeu_pd(p.add(4), _mm256_permute2f128_pd::<0x31>(a, b));
+                    reads.twins_wrote(g, h, xn, x[h]);
                 }
             }
         }
@@ -1767,25 +1757,11 @@ impl PullLayouts {
             let inv = _mm256_set1_pd(1.0 / M);
             let (k, z) = (_mm256_set1_pd(K), _mm256_set1_pd(Z));
             for g in groups {
-                // `[x0 p0 x1 p1]`, `[x2 p2 x3 p3]` of each half, `p` for `x(n-1)`, then as a
-                // row's are loaded: `[x0 p0 | x2 p2]`, `[x1 p1 | x3 p3]`
-                let mem =
-                    |h: usize, i: usize| _mm256_loadu_pd(reads.pc.add(16 * g + 8 * h + 4 * i));
                 let own = [0, 1].map(|h| {
-                    let (a, b) = (mem(h, 0), mem(h, 1));
-                    [
-                        _mm256_permute2f128_pd::<0x20>(a, b),
-                        _mm256_permute2f128_pd::<0x31>(a, b),
-                    ]
+                    let (lo, hi) = reads.twins_own(g, h);
+                    [lo, hi]
                 });
-                let mut d = [[_mm256_setzero_pd(); 2]; 2];
-                for r in self.rows(g) {
-                    for h in 0..2 {
-                        let (a, b) = reads.loaded::<true>(r, h);
-                        d[h][0] = _mm256_add_pd(d[h][0], _mm256_sub_pd(own[h][0], a));
-                        d[h][1] = _mm256_add_pd(d[h][1], _mm256_sub_pd(own[h][1], b));
-                    }
-                }
+                let d = self.summed_rows::<true>(g, &own, reads);
                 for h in 0..2 {
                     let [lo, hi] = own[h];
                     let (x, xp) = (_mm256_unpacklo_pd(lo, hi), _mm256_unpackhi_pd(lo, hi));
@@ -1798,13 +1774,38 @@ impl PullLayouts {
                     let f = _mm256_sub_pd(_mm256_setzero_pd(), g_sum);
                     let sum = _mm256_sub_pd(_mm256_add_pd(x, x), xp);
                     let xn = _mm256_add_pd(sum, _mm256_mul_pd(f, inv));
-                    let (a, b) = (_mm256_unpacklo_pd(xn, x), _mm256_unpackhi_pd(xn, x));
-                    let p = reads.pn.add(16 * g + 8 * h);
-                    _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(a, b));
-                    _mm256_storeu_pd(p.add(4), _mm256_permute2f128_pd::<0x31>(a, b));
+                    reads.twins_wrote(g, h, xn, x);
                 }
             }
         }
+    }
+
+    /// The sums over group `g`'s rows of `own - loaded`, each half's two vectors as a row's pairs
+    /// are loaded ([`Pairs4::loaded`], `reads.at` in bytes where `BYTES`), `own` the group's own
+    /// pairs laid out the same way.
+    ///
+    /// # Safety
+    /// The CPU has AVX2; `reads`' promise holds for the group's rows.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn summed_rows<const BYTES: bool>(
+        &self,
+        g: usize,
+        own: &[[V4; 2]; 2],
+        reads: &Pairs4,
+    ) -> [[V4; 2]; 2] {
+        use std::arch::x86_64::*;
+        let mut d = [[_mm256_setzero_pd(); 2]; 2];
+        for r in self.rows(g) {
+            for h in 0..2 {
+                // SAFETY: the caller's promise.
+                let (a, b) = unsafe { reads.loaded::<BYTES>(r, h) };
+                d[h][0] = _mm256_add_pd(d[h][0], _mm256_sub_pd(own[h][0], a));
+                d[h][1] = _mm256_add_pd(d[h][1], _mm256_sub_pd(own[h][1], b));
+            }
+        }
+        d
     }
 
     /// [`Layout::Summed`]: [`PullLayouts::step_summed_as`] of slots.
@@ -1864,14 +1865,7 @@ impl PullLayouts {
                         _mm256_unpackhi_pd(x[h], v[h]),
                     ]
                 });
-                let mut d = [[_mm256_setzero_pd(); 2]; 2];
-                for r in self.rows(g) {
-                    for h in 0..2 {
-                        let (a, b) = reads.loaded::<BYTES>(r, h);
-                        d[h][0] = _mm256_add_pd(d[h][0], _mm256_sub_pd(own[h][0], a));
-                        d[h][1] = _mm256_add_pd(d[h][1], _mm256_sub_pd(own[h][1], b));
-                    }
-                }
+                let d = self.summed_rows::<BYTES>(g, &own, reads);
                 let (mut xn, mut vn) = ([_mm256_setzero_pd(); 2], [_mm256_setzero_pd(); 2]);
                 for h in 0..2 {
                     let (sd, sdv) = (
@@ -2005,6 +1999,42 @@ struct Pairs4<'a> {
 
 #[cfg(target_arch = "x86_64")]
 impl Pairs4<'_> {
+    /// Group `g`'s own pairs of `x(n)` and `x(n-1)` ([`Layout::Twins`]), lanes `4 h..4 h + 4`,
+    /// as a row's are loaded: `[x0 p0 | x2 p2]` and `[x1 p1 | x3 p3]`, `p` for `x(n-1)`.
+    ///
+    /// # Safety
+    /// The CPU has AVX2; group `g`'s pairs are within `pc`.
+    #[inline(always)]
+    unsafe fn twins_own(&self, g: usize, h: usize) -> (V4, V4) {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller's promise; in memory `[x0 p0 x1 p1]`, `[x2 p2 x3 p3]`.
+        unsafe {
+            let at = |i: usize| _mm256_loadu_pd(self.pc.add(16 * g + 8 * h + 4 * i));
+            let (a, b) = (at(0), at(1));
+            (
+                _mm256_permute2f128_pd::<0x20>(a, b),
+                _mm256_permute2f128_pd::<0x31>(a, b),
+            )
+        }
+    }
+
+    /// Writes group `g`'s next pairs of `x(n+1)` (`xn`) and `x(n)` (`x`), lanes `4 h..4 h + 4`
+    /// ([`Layout::Twins`]).
+    ///
+    /// # Safety
+    /// The CPU has AVX2; group `g`'s pairs are within `pn`.
+    #[inline(always)]
+    unsafe fn twins_wrote(&self, g: usize, h: usize, xn: V4, x: V4) {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller's promise.
+        unsafe {
+            let (a, b) = (_mm256_unpacklo_pd(xn, x), _mm256_unpackhi_pd(xn, x));
+            let p = self.pn.add(16 * g + 8 * h);
+            _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(a, b));
+            _mm256_storeu_pd(p.add(4), _mm256_permute2f128_pd::<0x31>(a, b));
+        }
+    }
+
     /// `[x0 v0 | x2 v2]` and `[x1 v1 | x3 v3]` of the other ends of lanes `4 h..4 h + 4` of row
     /// `r`, as loaded; `at` in bytes where `BYTES`, else slots.
     ///
