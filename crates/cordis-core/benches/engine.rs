@@ -1260,10 +1260,12 @@ fn floor_threads_mode(n: usize, threads: usize) {
 /// ([`Layout::Pairs`] and [`Layout::Cached`]); with AVX2 two of four lanes, as the engine's AVX2
 /// pull step, in every [`Layout`].
 ///
-/// Every layout but [`Layout::Own`], [`Layout::Summed`], [`Layout::Lean`] and
-/// [`Layout::LeanTwins`] computes the same operations on the same operands, so the same bits
-/// (checked); the last three reorder each MAS's sum, `summed` and `lean` the same way (their
-/// distance from the others' positions is printed).
+/// Every layout but [`Layout::Own`], [`Layout::Summed`], [`Layout::Lean`], [`Layout::LeanTwins`]
+/// and the four mixed ones ([`Layout::Mixed`]) computes the same operations on the same operands,
+/// so the same bits (checked); `summed`, `lean`, `leantwins`, `mixed`, `mixedgather` and
+/// `mixed16` reorder each MAS's sum (`summed` and `lean` the same way, the three mixed ones the
+/// same way: their distance from the others' positions is printed, and `ceiling drift` follows it
+/// over a 10 s render).
 struct PullLayouts {
     /// MAS (the buffers hold whole groups: the last group's slots past `n` are padding)
     n: usize,
@@ -1275,6 +1277,11 @@ struct PullLayouts {
     own: Vec<[u32; 8]>,
     /// `at` in bytes into the pair buffers ([`Layout::Lean`])
     bytes: Vec<[u32; 8]>,
+    /// `at` in 16 bits ([`Layout::Mixed16`]; empty past 65,536 slots)
+    narrow: Vec<[u16; 8]>,
+    /// subtracted from every slot's starting `x(0) = (slot % 7) 1e-3` (with `x(-1) = 0`: the
+    /// start's velocities; `0.0` but in `ceiling drift`)
+    shift: f64,
     /// per row of group `g`: where each lane's MAS writes its `x(n+1)` in the mailbox, an index
     /// `8 r + j` (row `r`, lane `j`) that reads it ([`Layout::Mailbox`]); each MAS of the group
     /// has one such *write row* for each of the group's rows: it is read once for each of its
@@ -1325,6 +1332,21 @@ enum Layout {
     /// loaded, and a group's `Σdv` is `Σd - Σdp` (a reordering of the reference's `(x - x') -
     /// (xj - xj')`, so not its bits, nor summed's).
     LeanTwins,
+    /// Each MAS's `u = K x(n) + Z v(n)` computed once a step (every link's `K` and `Z` the same)
+    /// and kept in a buffer of its own, 8 bytes a MAS: a MAS's force is `Σ (uj - u)`, summed as
+    /// `Σ uj - R u` over its group's `R` rows (a lane with no link in a row reads its own `u`), a
+    /// sum reordered and `K` and `Z` distributed (not the reference's bits). A row loads four
+    /// scalars a half (two `movsd`, two `movhpd`, an insert) and adds them; a group reads its
+    /// `x(n)` and `x(n-1)` in order and writes `x(n+1)` and `u(n+1)`.
+    Mixed,
+    /// [`Layout::Mixed`] with each half row's four `u` read by one AVX2 gather.
+    MixedGather,
+    /// [`Layout::Mixed`] with the rows' slots in 16 bits (half the rows' bytes; networks of at
+    /// most 65,536 slots).
+    Mixed16,
+    /// [`Layout::Mixed`] with every lane reading its own `u`, as [`Layout::Own`]: what its
+    /// instructions cost with no scattered read (not the network's physics).
+    MixedOwn,
 }
 
 /// The vector width a [`PullLayouts`] step is written in.
@@ -1397,12 +1419,19 @@ impl PullLayouts {
             start = end;
         }
         let bytes = at.iter().map(|row| row.map(|o| 16 * o)).collect();
+        let narrow = if 8 * bounds.len() <= 1 << 16 {
+            at.iter().map(|row| row.map(|o| o as u16)).collect()
+        } else {
+            Vec::new()
+        };
         PullLayouts {
             n,
             at,
             ends: bounds,
             own,
             bytes,
+            narrow,
+            shift: 0.0,
             to,
         }
     }
@@ -1431,21 +1460,35 @@ impl PullLayouts {
                     std::is_x86_feature_detected!("avx512f")
                         && matches!(layout, Layout::Pairs | Layout::Cached)
                 }
-                Width::Avx2 => std::is_x86_feature_detected!("avx2"),
+                Width::Avx2 => {
+                    std::is_x86_feature_detected!("avx2")
+                        && (layout != Layout::Mixed16 || !self.narrow.is_empty())
+                }
             };
             if !has {
                 return None;
             }
             // (whole groups: the slots past the MAS are padding)
             let n = 8 * self.ends.len();
-            let x0 = |i: usize| (i % 7) as f64 * 1e-3;
+            let x0 = |i: usize| (i % 7) as f64 * 1e-3 - self.shift;
             // x(n) in pos[0], x(n-1) = 0 in pos[2]
             let mut pos: Vec<Vec<f64>> = vec![(0..n).map(x0).collect(), vec![0.0; n], vec![0.0; n]];
             // (`x(n)` and `v(n)`, or for the twins `x(n)` and `x(n-1)`)
             let twins = matches!(layout, Layout::Twins | Layout::LeanTwins);
-            let pairs0: Vec<f64> = (0..n)
-                .flat_map(|i| [x0(i), if twins { 0.0 } else { x0(i) }])
-                .collect();
+            let mixed = matches!(
+                layout,
+                Layout::Mixed | Layout::MixedGather | Layout::Mixed16 | Layout::MixedOwn
+            );
+            // (for the mixed layouts `u(0) = K x(0) + Z v(0)`, `v(0) = x(0)`, then padding)
+            let pairs0: Vec<f64> = if mixed {
+                (0..2 * n)
+                    .map(|i| if i < n { K * x0(i) + Z * x0(i) } else { 0.0 })
+                    .collect()
+            } else {
+                (0..n)
+                    .flat_map(|i| [x0(i), if twins { 0.0 } else { x0(i) }])
+                    .collect()
+            };
             let mut pairs = [pairs0.clone(), pairs0];
             let mut cache = vec![0.0; 8 * self.at.len()];
             // (the mailboxes as the positions: `x(n)` in 0, `x(n-1)` = 0 in 2)
@@ -1533,6 +1576,24 @@ impl PullLayouts {
                                                 let at = &self.bytes;
                                                 let pairs = &Pairs4 { at, pc, pn };
                                                 self.step_lean_avx2(g, pos, pairs)
+                                            }
+                                            Layout::Mixed => {
+                                                let pairs = &Pairs4 { at, pc, pn };
+                                                self.step_mixed_avx2(g, pos, pairs)
+                                            }
+                                            Layout::Mixed16 => {
+                                                let pairs = &Pairs4 { at, pc, pn };
+                                                let narrow = &self.narrow;
+                                                self.step_mixed16_avx2(g, pos, pairs, narrow)
+                                            }
+                                            Layout::MixedOwn => {
+                                                let at = &self.own;
+                                                let pairs = &Pairs4 { at, pc, pn };
+                                                self.step_mixed_avx2(g, pos, pairs)
+                                            }
+                                            Layout::MixedGather => {
+                                                let pairs = &Pairs4 { at, pc, pn };
+                                                self.step_mixed_gather_avx2(g, pos, pairs)
                                             }
                                             Layout::Mailbox => {
                                                 let (cur, prev, next) = turn(mail_at);
@@ -1832,6 +1893,111 @@ impl PullLayouts {
         unsafe { self.step_summed_as::<true>(groups, pos, reads) }
     }
 
+    /// [`Layout::Mixed`]: [`PullLayouts::step_mixed_as`] by scalar loads.
+    ///
+    /// # Safety
+    /// As [`PullLayouts::step_mixed_as`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    unsafe fn step_mixed_avx2(&self, groups: Range<usize>, pos: Pos, reads: &Pairs4) {
+        // SAFETY: the caller's promise.
+        unsafe {
+            let load = |r: usize, h: usize| mixed_lanes(reads.pc, &reads.at[r][4 * h..]);
+            self.step_mixed_as(groups, pos, reads.pn, load)
+        }
+    }
+
+    /// [`Layout::Mixed16`]: [`PullLayouts::step_mixed_as`] by scalar loads, 16-bit slots.
+    ///
+    /// # Safety
+    /// As [`PullLayouts::step_mixed_as`], `narrow` the rows.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    unsafe fn step_mixed16_avx2(
+        &self,
+        groups: Range<usize>,
+        pos: Pos,
+        reads: &Pairs4,
+        narrow: &[[u16; 8]],
+    ) {
+        // SAFETY: the caller's promise.
+        unsafe {
+            let load = |r: usize, h: usize| mixed_lanes(reads.pc, &narrow[r][4 * h..]);
+            self.step_mixed_as(groups, pos, reads.pn, load)
+        }
+    }
+
+    /// [`Layout::MixedGather`]: [`PullLayouts::step_mixed_as`] by gathers.
+    ///
+    /// # Safety
+    /// As [`PullLayouts::step_mixed_as`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    unsafe fn step_mixed_gather_avx2(&self, groups: Range<usize>, pos: Pos, reads: &Pairs4) {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller's promise.
+        unsafe {
+            let load = |r: usize, h: usize| {
+                let i = _mm_loadu_si128(reads.at[r].as_ptr().add(4 * h).cast());
+                _mm256_i32gather_pd::<8>(reads.pc, i)
+            };
+            self.step_mixed_as(groups, pos, reads.pn, load)
+        }
+    }
+
+    /// The step of the mixed layouts ([`Layout::Mixed`]): `load(r, h)` gives the `u(n)` of the
+    /// other ends of lanes `4 h..4 h + 4` of row `r`; `un` takes each slot's `u(n+1)`.
+    ///
+    /// # Safety
+    /// As [`PullLayouts::step_avx2`], `load` reading within its buffer for the groups' rows and
+    /// `un` holding a `f64` a slot.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn step_mixed_as(
+        &self,
+        groups: Range<usize>,
+        (cur, prev, next): Pos,
+        un: *mut f64,
+        load: impl Fn(usize, usize) -> V4,
+    ) {
+        use std::arch::x86_64::*;
+        // SAFETY (the whole body): the caller's promise.
+        unsafe {
+            let inv = _mm256_set1_pd(1.0 / M);
+            let (k, z) = (_mm256_set1_pd(K), _mm256_set1_pd(Z));
+            let at = |b: *const f64, g: usize, h: usize| _mm256_loadu_pd(b.add(8 * g + 4 * h));
+            for g in groups {
+                let (x, xp) = (
+                    [at(cur, g, 0), at(cur, g, 1)],
+                    [at(prev, g, 0), at(prev, g, 1)],
+                );
+                let mut s = [_mm256_setzero_pd(); 2];
+                let rows = self.rows(g);
+                let count = _mm256_set1_pd(rows.len() as f64);
+                for r in rows {
+                    for (h, s) in s.iter_mut().enumerate() {
+                        *s = _mm256_add_pd(*s, load(r, h));
+                    }
+                }
+                for h in 0..2 {
+                    let v = _mm256_sub_pd(x[h], xp[h]);
+                    let u = _mm256_add_pd(_mm256_mul_pd(k, x[h]), _mm256_mul_pd(z, v));
+                    let f = _mm256_sub_pd(s[h], _mm256_mul_pd(count, u));
+                    let sum = _mm256_sub_pd(_mm256_add_pd(x[h], x[h]), xp[h]);
+                    let xn = _mm256_add_pd(sum, _mm256_mul_pd(f, inv));
+                    let vn = _mm256_sub_pd(xn, x[h]);
+                    let u = _mm256_add_pd(_mm256_mul_pd(k, xn), _mm256_mul_pd(z, vn));
+                    _mm256_storeu_pd(next.add(8 * g + 4 * h), xn);
+                    _mm256_storeu_pd(un.add(8 * g + 4 * h), u);
+                }
+            }
+        }
+    }
+
     /// [`PullLayouts::step_avx2`]'s step with each half row's differences summed as loaded,
     /// split and multiplied once a group; `reads.at` in bytes where `BYTES`, else slots.
     ///
@@ -1962,6 +2128,24 @@ impl PullLayouts {
 /// Four `f64` lanes.
 #[cfg(target_arch = "x86_64")]
 type V4 = std::arch::x86_64::__m256d;
+
+/// The four `f64` of `u` at the slots `at[0..4]`, by two scalar loads and two high loads.
+///
+/// # Safety
+/// The CPU has AVX2; `at` has four slots, each within `u`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn mixed_lanes<T: Copy + Into<u32>>(u: *const f64, at: &[T]) -> V4 {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's promise.
+    unsafe {
+        let p = |j: usize| u.add(at[j].into() as usize);
+        let lo = _mm_loadh_pd(_mm_load_sd(p(0)), p(1));
+        let hi = _mm_loadh_pd(_mm_load_sd(p(2)), p(3));
+        _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(lo), hi)
+    }
+}
 
 /// `x(n)`, `x(n-1)` and `x(n+1)` of a [`PullLayouts`] step.
 #[cfg(target_arch = "x86_64")]
@@ -2187,6 +2371,10 @@ fn pull_layouts_mode(n: usize, threads: usize) {
                 Layout::Lean,
                 Layout::Twins,
                 Layout::LeanTwins,
+                Layout::Mixed,
+                Layout::MixedGather,
+                Layout::Mixed16,
+                Layout::MixedOwn,
             ]
             .map(|l| (w, l))
         })
@@ -2199,6 +2387,7 @@ fn pull_layouts_mode(n: usize, threads: usize) {
     let mut times = vec![[Vec::new(), Vec::new()]; kinds.len() + 1];
     let (mut sums, mut own_sums, mut summed_sums) = (Vec::new(), Vec::new(), Vec::new());
     let (mut lean_twins_sums, mut lean_twins_off) = (Vec::new(), 0.0f64);
+    let (mut mixed_sums, mut mixed_off, mut mixed_own_sums) = (Vec::new(), 0.0f64, Vec::new());
     let hash = |xs: &[f64]| xs.iter().fold(0u64, |h, x| h.rotate_left(5) ^ x.to_bits());
     // (the pairs' last positions, and the largest difference of `summed`'s from them, with the
     // pairs' largest magnitude)
@@ -2211,6 +2400,12 @@ fn pull_layouts_mode(n: usize, threads: usize) {
                 times[i][t].push(secs);
                 match layout {
                     Layout::Own => own_sums.push(hash(&xs)),
+                    Layout::MixedOwn => mixed_own_sums.push(hash(&xs)),
+                    Layout::Mixed | Layout::MixedGather | Layout::Mixed16 => {
+                        mixed_sums.push(hash(&xs));
+                        let off = xs.iter().zip(&pairs_x).map(|(a, b)| (a - b).abs());
+                        mixed_off = mixed_off.max(off.fold(0.0, f64::max));
+                    }
                     Layout::LeanTwins => {
                         lean_twins_sums.push(hash(&xs));
                         let off = xs.iter().zip(&pairs_x).map(|(a, b)| (a - b).abs());
@@ -2251,7 +2446,8 @@ fn pull_layouts_mode(n: usize, threads: usize) {
     println!(
         "{} ({} MAS, {} rows): {work:.3e} mass-steps per run, median of {RUNS}; load average \
          {}; the layouts' bits {} (`own` {}, `summed` and `lean` {}, at most {:.2e} from the others' \
-         positions, whose largest is {:.2e}; `leantwins` {}, at most {:.2e} from them)\n\
+         positions, whose largest is {:.2e}; `leantwins` {}, at most {:.2e} from them; `mixed`, \
+         `mixedgather` and `mixed16` {}, at most {:.2e}; `mixedown` {})\n\
          layout           1 thread  {threads} threads   ratio  1 thread / cordis's",
         model.name,
         layouts.n,
@@ -2264,6 +2460,9 @@ fn pull_layouts_mode(n: usize, threads: usize) {
         summed_off.1,
         each(&lean_twins_sums),
         lean_twins_off,
+        each(&mixed_sums),
+        mixed_off,
+        each(&mixed_own_sums),
         work = work as f64
     );
     let e1 = median(times[kinds.len()][0].clone());
@@ -2278,6 +2477,60 @@ fn pull_layouts_mode(n: usize, threads: usize) {
             mass_steps / tt,
             t1 / tt,
             e1 / t1
+        );
+    }
+}
+
+/// `ceiling drift [N [STEPS]]`: how far the layouts of [`PullLayouts`] that reorder a MAS's sum
+/// ([`Layout::Summed`], [`Layout::LeanTwins`], [`Layout::Mixed`]) end from the reference's bits
+/// ([`Layout::Pairs`]) after 1,000, 10,000 and 100,000 steps and STEPS (441,000 by default: 10 s
+/// at 44.1 kHz), on one thread in AVX2, each distance next to the largest position and as a
+/// share of it (the rules allow 1e-12 of the signal's peak): from `ceiling pull`'s start, where
+/// the network drifts, then from one whose velocities' mean is about zero.
+fn drift_mode(n: usize, steps: usize) {
+    let model = random(n, Law::Ref);
+    let mut layouts = PullLayouts::new(&model.net, model.masses);
+    if layouts.run(1, 1, Width::Avx2, Layout::Pairs).is_none() {
+        println!("no AVX2 on this CPU: no layout to run");
+        return;
+    }
+    // (as `ceiling pull` starts, the network drifts: no link holds it, and the start's mean
+    // velocity is about 3e-3 a step; then with the velocities' mean about 0)
+    for shift in [0.0, 3e-3] {
+        layouts.shift = shift;
+        drift_table(&model, &layouts, steps);
+    }
+}
+
+/// [`drift_mode`]'s table for `layouts` as they start.
+fn drift_table(model: &Model, layouts: &PullLayouts, steps: usize) {
+    let at = |steps: usize, layout: Layout| {
+        let (_, xs) = layouts.run(steps, 1, Width::Avx2, layout)?;
+        // (the MAS alone, not the last group's padding)
+        Some(xs[..layouts.n].to_vec())
+    };
+    println!(
+        "{} ({} MAS, starting at x(0) = (slot % 7) 1e-3 - {:e}, x(-1) = 0): each reordered \
+         layout's largest distance from the pairs' positions (the reference's bits), and that \
+         over the pairs' largest position",
+        model.name, layouts.n, layouts.shift
+    );
+    println!(
+        "{:>8} {:>10}   {:>19}   {:>19}   {:>19}",
+        "steps", "largest x", "summed", "leantwins", "mixed"
+    );
+    let checks = [1_000, 10_000, 100_000].into_iter().filter(|&s| s < steps);
+    for s in checks.chain([steps]) {
+        let pairs = at(s, Layout::Pairs).expect("AVX2 was found above");
+        let peak = pairs.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let cells = [Layout::Summed, Layout::LeanTwins, Layout::Mixed].map(|l| {
+            let xs = at(s, l).expect("AVX2 was found above");
+            let off = (xs.iter().zip(&pairs)).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            format!("{off:.2e} ({:.1e})", off / peak)
+        });
+        println!(
+            "{s:>8} {peak:>10.3e}   {:>19}   {:>19}   {:>19}",
+            cells[0], cells[1], cells[2]
         );
     }
 }
@@ -2983,10 +3236,11 @@ fn usage() -> ! {
          or: cargo bench -p cordis-core --bench engine -- netlist DIR MODEL...   (write the \
          models as netlists for the C generic kernel cref.c)\n   \
          or: cargo bench -p cordis-core --bench engine -- ceiling MODEL... | ceiling threads [N \
-         [T]] | ceiling pull [N [T]] | ceiling curves | ceiling signs | ceiling pingpong   \
-         (hand-written kernels: the membrane's stencils, the reads of a random network, on T \
-         threads, the pull step's layouts, two searches of an LNL curve's segment; how often \
-         LNL links change segment; a cache line's trip between two threads)"
+         [T]] | ceiling pull [N [T]] | ceiling drift [N [STEPS]] | ceiling curves | ceiling \
+         signs | ceiling pingpong   (hand-written kernels: the membrane's stencils, the reads of a \
+         random network, on T threads, the pull step's layouts, how far its reordered sums end \
+         from the reference's bits, two searches of an LNL curve's segment; how often LNL links \
+         change segment; a cache line's trip between two threads)"
     );
     std::process::exit(2)
 }
@@ -3248,6 +3502,7 @@ fn main() {
         match args.get(1).map(String::as_str) {
             Some("threads") => return floor_threads_mode(num(2, 100_000, 9), num(3, 2, 1)),
             Some("pull") => return pull_layouts_mode(num(2, 10_000, 16), num(3, 2, 1)),
+            Some("drift") => return drift_mode(num(2, 10_000, 16), num(3, 441_000, 1)),
             Some("curves") => return curves_mode(),
             Some("signs") => return signs_mode(),
             Some("pingpong") => return pingpong_mode(),
