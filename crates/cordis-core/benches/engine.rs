@@ -1541,15 +1541,17 @@ impl PullLayouts {
                                         self.step_pairs(g, cur, prev, next, pc, pn)
                                     }
                                     (Width::Avx2, layout) => {
-                                        let (at, pos) =
-                                            (&self.at, (cur.cast_const(), prev.cast_const(), next));
+                                        let pos = (cur.cast_const(), prev.cast_const(), next);
+                                        // (the rows as the layout reads them)
+                                        let at = match layout {
+                                            Layout::Own | Layout::MixedOwn => &self.own,
+                                            Layout::Lean | Layout::LeanTwins => &self.bytes,
+                                            _ => &self.at,
+                                        };
+                                        let pairs = &Pairs4 { at, pc, pn };
                                         match layout {
-                                            Layout::Pairs => {
-                                                self.step_pairs_avx2(g, pos, &Pairs4 { at, pc, pn })
-                                            }
-                                            Layout::Own => {
-                                                let at = &self.own;
-                                                self.step_pairs_avx2(g, pos, &Pairs4 { at, pc, pn })
+                                            Layout::Pairs | Layout::Own => {
+                                                self.step_pairs_avx2(g, pos, pairs)
                                             }
                                             Layout::Cached => {
                                                 let cache = cache_at.0;
@@ -1559,40 +1561,20 @@ impl PullLayouts {
                                                     &Cached4 { at, cur, cache },
                                                 )
                                             }
-                                            Layout::Twins => {
-                                                let pairs = &Pairs4 { at, pc, pn };
-                                                self.step_twins_avx2(g, pairs)
-                                            }
+                                            Layout::Twins => self.step_twins_avx2(g, pairs),
                                             Layout::LeanTwins => {
-                                                let at = &self.bytes;
-                                                let pairs = &Pairs4 { at, pc, pn };
                                                 self.step_lean_twins_avx2(g, pairs)
                                             }
-                                            Layout::Summed => {
-                                                let pairs = &Pairs4 { at, pc, pn };
-                                                self.step_summed_avx2(g, pos, pairs)
-                                            }
-                                            Layout::Lean => {
-                                                let at = &self.bytes;
-                                                let pairs = &Pairs4 { at, pc, pn };
-                                                self.step_lean_avx2(g, pos, pairs)
-                                            }
-                                            Layout::Mixed => {
-                                                let pairs = &Pairs4 { at, pc, pn };
+                                            Layout::Summed => self.step_summed_avx2(g, pos, pairs),
+                                            Layout::Lean => self.step_lean_avx2(g, pos, pairs),
+                                            Layout::Mixed | Layout::MixedOwn => {
                                                 self.step_mixed_avx2(g, pos, pairs)
                                             }
                                             Layout::Mixed16 => {
-                                                let pairs = &Pairs4 { at, pc, pn };
                                                 let narrow = &self.narrow;
                                                 self.step_mixed16_avx2(g, pos, pairs, narrow)
                                             }
-                                            Layout::MixedOwn => {
-                                                let at = &self.own;
-                                                let pairs = &Pairs4 { at, pc, pn };
-                                                self.step_mixed_avx2(g, pos, pairs)
-                                            }
                                             Layout::MixedGather => {
-                                                let pairs = &Pairs4 { at, pc, pn };
                                                 self.step_mixed_gather_avx2(g, pos, pairs)
                                             }
                                             Layout::Mailbox => {
@@ -1969,12 +1951,8 @@ impl PullLayouts {
         unsafe {
             let inv = _mm256_set1_pd(1.0 / M);
             let (k, z) = (_mm256_set1_pd(K), _mm256_set1_pd(Z));
-            let at = |b: *const f64, g: usize, h: usize| _mm256_loadu_pd(b.add(8 * g + 4 * h));
             for g in groups {
-                let (x, xp) = (
-                    [at(cur, g, 0), at(cur, g, 1)],
-                    [at(prev, g, 0), at(prev, g, 1)],
-                );
+                let (x, xp) = (group_x(cur, g), group_x(prev, g));
                 let mut s = [_mm256_setzero_pd(); 2];
                 let rows = self.rows(g);
                 let count = _mm256_set1_pd(rows.len() as f64);
@@ -2017,12 +1995,8 @@ impl PullLayouts {
         unsafe {
             let inv = _mm256_set1_pd(1.0 / M);
             let (k, z) = (_mm256_set1_pd(K), _mm256_set1_pd(Z));
-            let at = |b: *const f64, g: usize, h: usize| _mm256_loadu_pd(b.add(8 * g + 4 * h));
             for g in groups {
-                let (x, xp) = (
-                    [at(cur, g, 0), at(cur, g, 1)],
-                    [at(prev, g, 0), at(prev, g, 1)],
-                );
+                let (x, xp) = (group_x(cur, g), group_x(prev, g));
                 let v = [_mm256_sub_pd(x[0], xp[0]), _mm256_sub_pd(x[1], xp[1])];
                 // the group's own pairs as a row's are loaded: `[x0 v0 | x2 v2]`, `[x1 v1 | x3 v3]`
                 let own = [0, 1].map(|h| {
@@ -2064,12 +2038,8 @@ impl PullLayouts {
         // SAFETY (the whole body): the caller's promise.
         unsafe {
             let inv = _mm256_set1_pd(1.0 / M);
-            let at = |b: *const f64, g: usize, h: usize| _mm256_loadu_pd(b.add(8 * g + 4 * h));
             for g in groups {
-                let (x, xp) = (
-                    [at(cur, g, 0), at(cur, g, 1)],
-                    [at(prev, g, 0), at(prev, g, 1)],
-                );
+                let (x, xp) = (group_x(cur, g), group_x(prev, g));
                 let v = [_mm256_sub_pd(x[0], xp[0]), _mm256_sub_pd(x[1], xp[1])];
                 let mut f = [_mm256_setzero_pd(); 2];
                 for r in self.rows(g) {
@@ -2145,6 +2115,18 @@ unsafe fn mixed_lanes<T: Copy + Into<u32>>(u: *const f64, at: &[T]) -> V4 {
         let hi = _mm_loadh_pd(_mm_load_sd(p(2)), p(3));
         _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(lo), hi)
     }
+}
+
+/// Group `g`'s eight `f64` of `b` (positions a slot), as two vectors.
+///
+/// # Safety
+/// The CPU has AVX2; group `g`'s slots are within `b`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn group_x(b: *const f64, g: usize) -> [V4; 2] {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's promise.
+    unsafe { [0, 1].map(|h| _mm256_loadu_pd(b.add(8 * g + 4 * h))) }
 }
 
 /// `x(n)`, `x(n-1)` and `x(n+1)` of a [`PullLayouts`] step.
