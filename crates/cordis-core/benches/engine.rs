@@ -2468,7 +2468,8 @@ fn pull_layouts_mode(n: usize, threads: usize) {
 /// ([`Layout::Pairs`]) after 1,000, 10,000 and 100,000 steps and STEPS (441,000 by default: 10 s
 /// at 44.1 kHz), on one thread in AVX2, each distance next to the largest position and as a
 /// share of it (the rules allow 1e-12 of the signal's peak): from `ceiling pull`'s start, where
-/// the network drifts, then from one whose velocities' mean is about zero.
+/// the network drifts, then from one whose velocities' mean is about zero; then the same sums on
+/// the model itself ([`drift_model`]).
 fn drift_mode(n: usize, steps: usize) {
     let model = random(n, Law::Ref);
     let mut layouts = PullLayouts::new(&model.net, model.masses);
@@ -2481,6 +2482,85 @@ fn drift_mode(n: usize, steps: usize) {
     for shift in [0.0, 3e-3] {
         layouts.shift = shift;
         drift_table(&model, &layouts, steps);
+    }
+    drift_model(&model, steps);
+}
+
+/// [`drift_mode`]'s last table: the bench's `random` model as declared (one ground link, the MAS
+/// `n / 4` struck), stepped by [`Generic`] (the Rust port of `cref.c`, whose output on REF
+/// models the bench finds bit-identical to the engine's) and by the same loops with each MAS's sum reordered as summed's (`F = -(K Σd + Z Σdv)`)
+/// and as mixed's (`F = Σ uj - d u`, `d` its links); each one's largest distance from the
+/// reference's output (its SOX signal) so far, and that over the signal's peak so far.
+fn drift_model(model: &Model, steps: usize) {
+    let [mut r, mut a, mut b] = [0; 3].map(|_| Generic::new(&model.net, model.out));
+    let (k, z) = (r.lk[0], r.lz[0]);
+    if !r.ci.is_empty() || r.lk.iter().any(|&c| c != k) || r.lz.iter().any(|&c| c != z) {
+        println!(
+            "{}: not REF links of one K and Z alone; no table",
+            model.name
+        );
+        return;
+    }
+    for g in [&mut r, &mut a, &mut b] {
+        g.reset();
+    }
+    let ends = r.x.len();
+    let mut degree = vec![0.0; ends];
+    for (&i, &j) in r.li.iter().zip(&r.lj) {
+        degree[i as usize] += 1.0;
+        degree[j as usize] += 1.0;
+    }
+    let (mut sdv, mut u) = (vec![0.0; ends], vec![0.0; ends]);
+    let (out, mut peak, mut off) = (r.out, 0.0f64, [0.0f64; 2]);
+    println!(
+        "{} as declared (one ground link, MAS {} struck), its SOX signal: each reordered sum's \
+         largest distance from the reference's so far, and that over the signal's peak so far",
+        model.name,
+        model.masses / 4
+    );
+    println!(
+        "{:>8} {:>10}   {:>19}   {:>19}",
+        "steps", "peak", "summed", "mixed"
+    );
+    for step in 1..=steps {
+        r.links();
+        r.masses();
+        // summed: the links' differences summed, `K` and `Z` applied once a MAS
+        for (&i, &j) in a.li.iter().zip(&a.lj) {
+            let (i, j) = (i as usize, j as usize);
+            let d = a.x[i] - a.x[j];
+            let dv = (a.x[i] - a.xp[i]) - (a.x[j] - a.xp[j]);
+            (a.f[i], a.f[j], sdv[i], sdv[j]) = (a.f[i] + d, a.f[j] - d, sdv[i] + dv, sdv[j] - dv);
+        }
+        for (f, dv) in a.f[..a.nm].iter_mut().zip(&sdv) {
+            *f = -(k * *f + z * dv);
+        }
+        sdv.fill(0.0);
+        a.masses();
+        // mixed: each end's `u = K x + Z v` once a step, each MAS's `Σ uj - d u`
+        for (i, u) in u.iter_mut().enumerate() {
+            *u = k * b.x[i] + z * (b.x[i] - b.xp[i]);
+        }
+        for (&i, &j) in b.li.iter().zip(&b.lj) {
+            let (i, j) = (i as usize, j as usize);
+            (b.f[i], b.f[j]) = (b.f[i] + u[j], b.f[j] + u[i]);
+        }
+        for ((f, d), u) in b.f[..b.nm].iter_mut().zip(&degree).zip(&u) {
+            *f -= d * u;
+        }
+        b.masses();
+        peak = peak.max(r.x[out].abs());
+        for (o, g) in off.iter_mut().zip([&a, &b]) {
+            *o = o.max((g.x[out] - r.x[out]).abs());
+        }
+        if [1_000, 10_000, 100_000, steps].contains(&step) {
+            let cell = |o: f64| format!("{o:.2e} ({:.1e})", o / peak);
+            println!(
+                "{step:>8} {peak:>10.3e}   {:>19}   {:>19}",
+                cell(off[0]),
+                cell(off[1])
+            );
+        }
     }
 }
 
