@@ -1333,7 +1333,8 @@ enum Layout {
     /// (xj - xj')`, so not its bits, nor summed's).
     LeanTwins,
     /// Each MAS's `u = K x(n) + Z v(n)` computed once a step (every link's `K` and `Z` the same)
-    /// and kept in a buffer of its own, 8 bytes a MAS: a MAS's force is `Σ (uj - u)`, summed as
+    /// and kept apart from its positions, 8 bytes a MAS (the first half of the pair buffers,
+    /// taking turns as the pairs do): a MAS's force is `Σ (uj - u)`, summed as
     /// `Σ uj - R u` over its group's `R` rows (a lane with no link in a row reads its own `u`), a
     /// sum reordered and `K` and `Z` distributed (not the reference's bits). A row loads four
     /// scalars a half (two `movsd`, two `movhpd`, an insert) and adds them; a group reads its
@@ -1525,8 +1526,9 @@ impl PullLayouts {
                             let (pc, pn) = (pairs_at[s % 2].0, pairs_at[(s + 1) % 2].0);
                             let g = own.clone();
                             // SAFETY: the CPU has `width` (checked above); every index of `at`,
-                            // `own` and `to` is a slot below `n` or an entry of the mailboxes,
-                            // each buffer holds `n` slots (pairs `2 n`, the cache and the
+                            // `own`, `narrow` and `to` is a slot below `n` or an entry of the
+                            // mailboxes, each buffer holds `n` slots (pairs `2 n`, of which the
+                            // mixed layouts' `u` take the first `n`; the cache and the
                             // mailboxes 8 a row), and the thread writes only its own groups' slots
                             // of `next`, `pn` and the cache, and the entries of `next`'s mailbox
                             // its own MAS's readers have (each entry one MAS's), none of which a
