@@ -3,7 +3,7 @@
 //!
 //! Two threads are not always faster. A network without locality (a random one) has each thread
 //! read, every step, the positions the other wrote; on a host whose two vCPUs are far apart (a
-//! cache line's trip at 200–260 ns on the Zen 3 of docs/BENCHMARKS.md, sixty-fourth session) a
+//! cache line's trip at 200–260 ns on the Zen 3 of docs/BENCHMARKS-LOG.md, sixty-fourth session) a
 //! 100,000-mass random network renders 0.6–0.8x as fast on two threads as on one. The output is
 //! the same bits whatever the number of threads (the engine's promise, tested), so the render may
 //! change it between blocks: [`AutoThreads`] times short chunks on both, keeps the faster, and

@@ -2995,7 +2995,7 @@ fn curves_mode() {
 /// two threads hand a counter to each other 2,000,000 times through one atomic (each waits,
 /// spinning, for the other's increment). Half the round trip is what one thread waits each time
 /// it reads a pair the other wrote in the step before; the random network's two-thread ratio
-/// follows it (docs/BENCHMARKS.md, fifty-eighth session). Then, three times, what two threads
+/// follows it (docs/BENCHMARKS-LOG.md, fifty-eighth session). Then, three times, what two threads
 /// give on arithmetic alone, with nothing shared (eight chains of a multiply and an add each): the
 /// most two vCPUs give any step, whatever it shares (seventy-second session).
 fn pingpong_mode() {

@@ -520,7 +520,7 @@ impl<V: Vector, const N: usize> WideCurve<V, N> {
     /// is compiled at its padded counts: a 7-point curve at 8 makes 5 selects, not 6, a
     /// 13-point one at 16 11, not 14 (on Zen 3, the strings of the bench's `lnl-drawn` and
     /// `lnl-fine` 1.16x faster, a 16-point one with nothing to skip 0.97x; fully a loop, the
-    /// curves of 3 and 4 points ran 0.88x; docs/BENCHMARKS.md, sixty-third session).
+    /// curves of 3 and 4 points ran 0.88x; docs/BENCHMARKS-LOG.md, sixty-third session).
     ///
     /// # Safety
     /// The CPU must have `V`'s instructions (see [`Vector`]).

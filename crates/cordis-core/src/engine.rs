@@ -153,7 +153,7 @@ enum Mobiles {
 }
 
 /// Mobile materials of a kind per window of [`Mobiles::Local`]: a few pull-step groups of each
-/// degree, whose neighbours' pairs are near each other in the pair buffer (docs/BENCHMARKS.md,
+/// degree, whose neighbours' pairs are near each other in the pair buffer (docs/BENCHMARKS-LOG.md,
 /// twenty-fifth session).
 const WINDOW: usize = 256;
 
@@ -161,7 +161,7 @@ const WINDOW: usize = 256;
 /// kinds within wider windows, more rows of the pull step have one kind of term (a random
 /// network of BUT and LNL links half and half: rows of both kinds of lanes 60 % with windows of
 /// 256 MAS, 12 % with 4,096), at the cost of some of the locality of its pairs' reads (the REF
-/// network ran about 5 % slower in windows of 4,096; docs/BENCHMARKS.md, thirtieth session).
+/// network ran about 5 % slower in windows of 4,096; docs/BENCHMARKS-LOG.md, thirtieth session).
 const WIDE_WINDOW: usize = 16 * WINDOW;
 
 /// How [`Kernel::build_with`] joins progressions into loops with exceptions.
@@ -532,7 +532,7 @@ struct Tile {
 /// cache. With a membrane's rows one loop (see [`bridged`]), longer loops pay more than the L1
 /// cache: tiles of 1,024 materials (which fit in L1) ran the 100x100 membrane at 0.76-0.88x10^9
 /// mass-steps/s, of 4,096 to 16,384 at 0.88-0.98x10^9, and the 316x316 one at 0.74-0.75x10^9,
-/// then 0.83-0.90x10^9 (docs/BENCHMARKS.md, fifth session).
+/// then 0.83-0.90x10^9 (docs/BENCHMARKS-LOG.md, fifth session).
 const TILE: usize = 8192;
 
 /// Materials within this many storage slots of each other are neighbours in memory: a link
@@ -775,7 +775,7 @@ impl Claim {
     /// An iterator, not a function that calls a closure per chunk: the loop's body stays in the
     /// caller and is compiled with its target features. A closure is not (rust-lang/rust#58279):
     /// the gather step's loops inlined into one ran without vector instructions, at half the
-    /// speed (docs/BENCHMARKS.md, sixteenth session).
+    /// speed (docs/BENCHMARKS-LOG.md, sixteenth session).
     #[inline(always)]
     fn claimed<F: Fn(usize) -> usize>(
         claims: &[Claim],
@@ -1452,7 +1452,7 @@ impl State {
 /// 1.4x slower with the pull step than with the step it takes otherwise (the compact or gather
 /// step; its nine springs alone made the pull step 0.2 s slower in 24 s of sound, the other step
 /// no slower), a random network of 64 MAS of sticking springs 1.7x faster; from 256 MAS on,
-/// random networks of them ran 2.2x to 3x faster (docs/BENCHMARKS.md, forty-seventh and
+/// random networks of them ran 2.2x to 3x faster (docs/BENCHMARKS-LOG.md, forty-seventh and
 /// forty-eighth sessions, on Emerald Rapids). On Zen 5, since the pull step builds its curves'
 /// vectors with AVX-512 (forty-ninth session), the instrument renders 5 % faster with it and random
 /// networks of 16 to 255 MAS 1.4x to 2.6x; on Zen 4, since a CEL's terms are summed in runs of one
@@ -1617,7 +1617,7 @@ impl Kernel {
     /// the MAS in segments without streams: then the vector loops have little to do, and the
     /// compact step, which accumulates each force onto its ends as it is computed and updates
     /// the materials in one contiguous loop, saves the gather's per-segment work and its index
-    /// lists (docs/BENCHMARKS.md, "The compact step").
+    /// lists (docs/BENCHMARKS-LOG.md, "The compact step").
     fn mostly_indexed(&self) -> bool {
         let links = (self.whole.runs.iter())
             .filter(|r| r.ends == Ends::Indexed)
@@ -2732,7 +2732,7 @@ impl Kernel {
     /// The force of link `r` from the positions `cur` and `prev`, computed alone, as
     /// [`Kernel::each`] computes a link read through the index lists (one run of its own each
     /// through [`Kernel::run_links`] took 13 % of the reconfigurable instrument's pull step for
-    /// the six its outputs read, docs/BENCHMARKS.md, fiftieth session).
+    /// the six its outputs read, docs/BENCHMARKS-LOG.md, fiftieth session).
     #[inline]
     fn link_alone(&self, r: &Recorded, cur: &[f64], prev: &[f64]) -> f64 {
         let (l, a, b) = (r.slot as usize, r.a as usize, r.b as usize);
@@ -3493,7 +3493,7 @@ impl LinkLaw for ButLaw {
 /// Whether every value of `x` is finite, as `x.iter().all(|v| v.is_finite())` but in eight
 /// sums without an exit at the first bad value, which LLVM vectorises (a loop that may leave
 /// early it does not): `v * 0.0` is ±0 for a finite `v` and NaN otherwise (`inf * 0` is NaN),
-/// and a NaN stays in a sum. Once a block, over every position (docs/BENCHMARKS.md,
+/// and a NaN stays in a sum. Once a block, over every position (docs/BENCHMARKS-LOG.md,
 /// seventieth session).
 fn all_finite(x: &[f64]) -> bool {
     let mut acc = [0.0f64; 8];
@@ -3667,7 +3667,7 @@ fn local_order(
 /// Sorted by it within a window and a degree, the MAS of a pull-step group tend to have terms of
 /// one kind in each row: a row of BUT and LNL lanes would compute both kinds of force, a row of
 /// several pairs of curves evaluates each pair, and a row without LNL lanes skips the curves
-/// (docs/BENCHMARKS.md, thirtieth session). Mixed kinds take windows of [`WIDE_WINDOW`], in
+/// (docs/BENCHMARKS-LOG.md, thirtieth session). Mixed kinds take windows of [`WIDE_WINDOW`], in
 /// which more MAS of a kind meet. With several pairs, the MAS of one pair ([`TermKinds::pair`])
 /// come first in a window, ahead of degree, so that the pull step's groups of one pair make long
 /// runs (`Pull::runs`, thirty-first session).
@@ -3800,7 +3800,7 @@ fn bridged(
 /// Longest uniform run that [`joined`] makes part of a run with varied parameters: a loop that
 /// reads its parameters once saves a load per parameter and link, a run's set-up, loop tails and
 /// the MAS segment of its own cost tens of links (50 strings of 100 masses ran 1.2-1.9x faster
-/// joined, 20 strings of 250 at the same speed: docs/BENCHMARKS.md, thirteenth session).
+/// joined, 20 strings of 250 at the same speed: docs/BENCHMARKS-LOG.md, thirteenth session).
 const JOIN_MAX: usize = 256;
 
 /// The run pieces (in storage order) with each two progressions of one law that continue each

@@ -3,7 +3,7 @@
 //! A vector load or store of eight `f64` (AVX-512) that does not start on a cache line touches
 //! two of them, and costs about two. A `Vec<f64>` starts wherever the allocator puts it (on a
 //! 16-byte boundary with glibc), so a row's blocks straddled lines or not by chance: a 100x100
-//! membrane ran 1.22–1.34x faster once its buffers started on lines (`docs/BENCHMARKS.md`,
+//! membrane ran 1.22–1.34x faster once its buffers started on lines (`docs/BENCHMARKS-LOG.md`,
 //! twenty-fourth session). The position buffers and the grid step's row buffers are `Lines`: a
 //! `Vec<f64>` seven items longer than asked, used from its first item on a line. Safe code
 //! alone: only the offset of that item is computed from the address.

@@ -16,7 +16,7 @@
 //!
 //! - each MAS's velocity `v = x(n) - x(n-1)` is computed where it is needed: in its row, and
 //!   when its row is the one below (a subtraction costs less than keeping it in a row buffer, a
-//!   store and a load, docs/BENCHMARKS.md, twenty-fourth session);
+//!   store and a load, docs/BENCHMARKS-LOG.md, twenty-fourth session);
 //! - the horizontal links of eight MAS are computed from their `x`, `v` and the next eight's,
 //!   shifted by one lane; the link on the left of the first is the last lane of the block before;
 //! - the vertical links down to the row below are computed, and kept in a row buffer: they are
@@ -74,7 +74,7 @@
 //! once, each link once (from the block and its neighbours on the right), `F(n) = (0 + f_left) -
 //! f_right` (for LNL links, whose force the grid step makes sure is never `-0.0`, `f_left -
 //! f_right`, the same bits), the update: no force buffer, so a string of 10,000 MAS runs from the
-//! L2 cache at the speed one of 1,000 had from the L1 cache (docs/BENCHMARKS.md, eighteenth
+//! L2 cache at the speed one of 1,000 had from the L1 cache (docs/BENCHMARKS-LOG.md, eighteenth
 //! session). Each law
 //! is a [`StringLaw`] computing eight links with the gather step's operands and operations; an
 //! LNL string's curves are evaluated eight at a time by `curve.rs`'s `WideCurve` (whose doc
@@ -84,7 +84,7 @@
 //! one piece for every point count, `Curve::eval`'s bits). Short strings one after the other in
 //! storage, of REF links all or BUT links all, step in banks ([`Grid::units`]): one call loops
 //! over their pieces, so that a string of 30 MAS costs its 30 MAS and not a call chain as well
-//! (docs/BENCHMARKS.md, twenty-second session).
+//! (docs/BENCHMARKS-LOG.md, twenty-second session).
 
 use std::ops::Range;
 
@@ -147,7 +147,8 @@ trait StringLaw: Copy {
     /// Whether [`Sheet::piece`] loads each block's neighbours on the right (from one slot
     /// further) rather than shifting them by a lane from the block and the next: a REF string
     /// runs 9-12 % slower so and a BUT string 3 % (the loads cross cache lines), an LNL string
-    /// 7 % faster (its curves keep both vector ports busy; docs/BENCHMARKS.md).
+    /// 7 % faster (its curves keep both vector ports busy;
+    /// docs/BENCHMARKS-LOG.md, nineteenth session).
     const LOADS: bool;
 
     /// Whether `force` and `force_n` never give `-0.0`, so that [`Sheet::piece`]'s `F(n) = (0 +

@@ -66,7 +66,7 @@
 //! thread stores the forces of its share of the links, and a barrier orders them before the rows
 //! ([`PullJob`]). No row evaluates a pair then, so the table, the parts and the runs of several
 //! pairs are not built, and networks of pairs mixed in most rows take the step too. Measured in
-//! docs/BENCHMARKS.md, fifty-seventh session: 1.2x on a random network of 3-point curves, 1.65x
+//! docs/BENCHMARKS-LOG.md, fifty-seventh session: 1.2x on a random network of 3-point curves, 1.65x
 //! with 33 points; fifty-eighth: two pairs mixed link by link 1.77x. (Not yet on AVX-512.)
 //!
 //! CEL (few in practice) pull their terms one at a time with the same expressions; ENX read
@@ -163,7 +163,7 @@ pub(super) struct Share {
 /// `runs[off[c]..off[c + 1]]`, each `(kind, count)` taking the next `count` terms of the list of
 /// its kind, CEL after CEL. A run is a loop over one kind of term, with no choice between kinds
 /// in it: term by term, the three CELs of the reconfigurable instrument (eleven links each) took
-/// a fifth of its pull step's time (docs/BENCHMARKS.md, fiftieth session).
+/// a fifth of its pull step's time (docs/BENCHMARKS-LOG.md, fiftieth session).
 #[derive(Clone, Debug)]
 struct CelTerms {
     off: Vec<u32>,
@@ -617,7 +617,7 @@ impl Pull {
             cel.off.push(cel.runs.len() as u32);
         }
         // (each part of a row evaluates its pair on the whole row: two pairs in every row ran at
-        // 1.4x the gather step on a random network, docs/BENCHMARKS.md, twenty-eighth session)
+        // 1.4x the gather step on a random network, docs/BENCHMARKS-LOG.md, twenty-eighth session)
         // (with the forces stored, no row evaluates a pair: the parts are empty)
         if p.parts.len() >= PARTS as usize || 2 * evaluations[0] > 5 * evaluations[1] {
             return None;
@@ -2061,7 +2061,7 @@ unsafe fn pairs(
     vs: __m512i,
 ) -> (__m512d, __m512d) {
     // (two offsets per 8-byte load, the first in the low half on x86-64: four loads fewer per
-    // row, in a loop bound by its loads; measured in docs/BENCHMARKS.md, sixteenth session)
+    // row, in a loop bound by its loads; measured in docs/BENCHMARKS-LOG.md, sixteenth session)
     // SAFETY: `i < 4`: bytes `8 i..8 i + 8` of the 32 bytes of `at`, read unaligned.
     let w = |i: usize| unsafe { at.as_ptr().cast::<u64>().add(i).read_unaligned() };
     // SAFETY: each 16-byte load reads one pair of the buffer (the caller's promise).
