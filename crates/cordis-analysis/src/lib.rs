@@ -25,6 +25,36 @@ pub use modes::{
 };
 pub use sparse::{lowest_modes, receptance_sparse, LowestModes, SparseMethod};
 
+/// Clears the upper bits of the vector registers (`vzeroupper`) where the CPU has AVX; a no-op
+/// elsewhere.
+///
+/// faer's larger products (the `gemm` crate's kernels) can return with those bits dirty, and
+/// then every SSE instruction of the code that follows, built for the baseline x86-64, waits to
+/// merge them, until something clears them: on a Zen 4 the sparse `L D Lᵀ` solves ran 2.9x slower
+/// after a product of 32 × 32 or more than after one of 16 × 16 or less, which returns clean
+/// (docs/BENCHMARKS.md, "Analysis"). This crate calls it after each faer call whose caller's own
+/// code then runs long; a crate that calls faer itself (through [`faer`], re-exported) may do
+/// the same.
+#[inline]
+pub fn clean_upper() {
+    #[cfg(target_arch = "x86_64")]
+    {
+        #[target_feature(enable = "avx")]
+        fn zero_upper() {
+            std::arch::x86_64::_mm256_zeroupper();
+        }
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: `zero_upper` needs only AVX, which the CPU has (checked just above).
+            // `vzeroupper` reads and writes no memory; it zeroes bits 128 and up of the vector
+            // registers 0-15, which hold no live value across a call (both x86-64 ABIs make
+            // them caller-saved; Windows keeps only the low 128 bits of xmm6-15), and
+            // `zero_upper` is a call of its own (a `#[target_feature]` function is not inlined
+            // into a caller without the feature), so no caller sees a value change.
+            unsafe { zero_upper() }
+        }
+    }
+}
+
 /// Why an analysis could not be done.
 #[derive(Clone, Debug, PartialEq)]
 #[non_exhaustive]

@@ -213,6 +213,7 @@ impl ModalAnalysis {
         let evd = ks
             .self_adjoint_eigen(faer::Side::Lower)
             .map_err(|e| AnalysisError::NoConvergence(format!("{e:?}")))?;
+        crate::clean_upper();
         let lambda: Vec<f64> = (0..n).map(|j| evd.S()[j]).collect();
         let v = evd.U();
         // Φ = M^-1/2 V: Φᵀ M Φ = I
@@ -489,6 +490,7 @@ fn state_space(
     let vv = eig.U().to_owned();
     let mu: Vec<c64> = (0..2 * n).map(|k| eig.S()[k]).collect();
     let lu = vv.partial_piv_lu();
+    crate::clean_upper();
     use faer::linalg::solvers::Solve;
     // B in scaled coordinates: force F on x gives M^-1/2 F on y → input matrix [M^-1/2; 0]
     let bmat = Mat::<c64>::from_fn(2 * n, n, |i, j| {
@@ -728,6 +730,7 @@ pub fn equilibrium(k: &Mat<f64>, b: &[f64]) -> Vec<f64> {
         Ok(e) => e,
         Err(_) => return vec![0.0; n],
     };
+    crate::clean_upper();
     let (u, s) = (evd.U(), evd.S());
     let smax = (0..n).fold(0.0f64, |a, j| a.max(s[j].abs()));
     let mut x = vec![0.0; n];

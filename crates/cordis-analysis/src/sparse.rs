@@ -17,9 +17,12 @@
 //!
 //! The dynamic stiffness `A(z)` is complex symmetric, so it is factorised as `P A Pᵀ = L D Lᵀ`
 //! without pivoting (AMD ordering and supernodes from faer's symbolic Cholesky, dense updates by
-//! faer's matrix product), about 3 to 6 times faster than faer's sparse LU. Each solve takes one
-//! step of iterative refinement and checks its normwise backward error (≤ 1e-13); a solve that fails
-//! the check (a tiny pivot) is redone with faer's sparse LU with partial pivoting.
+//! faer's matrix product, within a supernode too, by panels of 16 columns), about 3 to 6 times
+//! faster than faer's sparse LU. Each solve takes one step of iterative refinement, and up to two
+//! more while its normwise backward error is above 1e-13; a solve that still fails the check (a
+//! tiny pivot) is redone with faer's sparse LU with partial pivoting. After each faer product
+//! [`crate::clean_upper`] clears the vector registers' upper bits, which the loops here would
+//! otherwise wait on.
 
 // Loops over CSC column ranges index several parallel arrays (rows, K, R, M values) at once.
 #![allow(clippy::needless_range_loop)]
@@ -264,6 +267,7 @@ fn orthogonalise(v: MatRef<'_, f64>, w: &mut [f64], h: &mut [f64]) -> f64 {
             -1.0,
             Par::Seq,
         );
+        crate::clean_upper();
         for (hi, ci) in h.iter_mut().zip(c.col_as_slice(0)) {
             *hi += ci;
         }
@@ -283,6 +287,7 @@ impl ShiftInvert {
     fn apply(&mut self, y: MatRef<'_, f64>) -> Mat<f64> {
         let mut x = Mat::<f64>::from_fn(y.nrows(), y.ncols(), |i, j| y[(i, j)] * self.sqm[i]);
         self.llt.solve_in_place(x.as_mut());
+        crate::clean_upper();
         for j in 0..x.ncols() {
             for (v, s) in x.col_as_slice_mut(j).iter_mut().zip(&self.sqm) {
                 *v *= s;
@@ -719,6 +724,7 @@ impl<'a> ComplexLu<'a> {
             Par::Seq,
             MemStack::new(&mut self.mem),
         );
+        crate::clean_upper();
         // refinement: r = b - A x, x += A⁻¹ r
         let mut r = vec![c64::new(0.0, 0.0); n];
         {
@@ -739,6 +745,7 @@ impl<'a> ComplexLu<'a> {
             Par::Seq,
             MemStack::new(&mut self.mem),
         );
+        crate::clean_upper();
         for (x, d) in rhs.iter_mut().zip(&r) {
             *x += *d;
         }
@@ -754,8 +761,8 @@ fn symbolic_lu(pat: &Pattern) -> Result<SymbolicLu<usize>, AnalysisError> {
 /// The receptance `X_b / F_a` (position at dof `b` per unit force at dof `a`) at each frequency,
 /// exact for the discrete scheme: `[(z M + K + R - 2M + z⁻¹ (M - R))⁻¹]_{b,a}` at `z = e^{iω}`,
 /// `ω = 2π f / Fs`, by a direct sparse solve per frequency (no modal truncation): complex
-/// symmetric `L D Lᵀ`, one step of iterative refinement, backward error checked, sparse LU when
-/// the check fails. One symbolic analysis; the frequencies are shared among the available cores.
+/// symmetric `L D Lᵀ`, iterative refinement, backward error checked, sparse LU when the check
+/// fails. One symbolic analysis; the frequencies are shared among the available cores.
 ///
 /// Errors: [`AnalysisError::InvalidRequest`] for a dof out of range or a non-finite frequency,
 /// [`AnalysisError::Singular`] when the matrix is singular at a frequency (an undamped pole hit
@@ -1092,6 +1099,8 @@ pub(crate) fn all_poles(
     let chunk = starts.len().div_ceil(threads).max(1);
     type Refined = (Vec<(c64, Vec<c64>, f64)>, usize);
     let work = |part: &[PoleStart]| -> Refined {
+        // (after the dense eigensolver on this thread, or none on a new one)
+        crate::clean_upper();
         let mut refiner = Refiner::new(&pat, &ldlt, &symbolic);
         let out = part
             .iter()
@@ -1633,6 +1642,34 @@ impl SymLdlt {
     }
 }
 
+/// How many columns of a supernode [`NumLdlt::factor`] eliminates one by one before it updates
+/// the rest by a product.
+const PANEL: usize = 16;
+
+/// `work (bot × mid) = lb (lb[..mid] D)ᵀ` for a panel `lb` of `bot` rows and `nb` columns, its
+/// pivots `d` (`nb`): the update `L D Lᵀ` a panel makes on the `mid` columns its first rows
+/// stand for. `scaled` and `work` must hold `mid × nb` and `bot × mid` numbers.
+fn outer(lb: MatRef<'_, c64>, d: &[c64], mid: usize, scaled: &mut [c64], work: &mut [c64]) {
+    let (bot, nb) = (lb.nrows(), lb.ncols());
+    // scaled = (lb[..mid] D) as (mid × nb), column-major
+    for (k, &dk) in d.iter().enumerate() {
+        for t in 0..mid {
+            scaled[k * mid + t] = lb[(t, k)] * dk;
+        }
+    }
+    let sc = faer::MatRef::from_column_major_slice(&scaled[..mid * nb], mid, nb);
+    let wk = faer::MatMut::from_column_major_slice_mut(&mut work[..bot * mid], bot, mid);
+    faer::linalg::matmul::matmul(
+        wk,
+        Accum::Replace,
+        lb,
+        sc.transpose(),
+        c64::new(1.0, 0.0),
+        Par::Seq,
+    );
+    crate::clean_upper();
+}
+
 /// The numeric part: `P A Pᵀ = L D Lᵀ`, no pivoting, with its work space.
 struct NumLdlt<'a> {
     sym: &'a SymLdlt,
@@ -1695,34 +1732,14 @@ impl<'a> NumLdlt<'a> {
                 let start = dpat.partition_point(|&r| r < s0);
                 let mid = dpat[start..].partition_point(|&r| r < s1);
                 let bot = dpat.len() - start;
-                // scaled = (Ld_mid D_d) as (mid × dw), column-major
-                for k in 0..dw {
-                    let dk = self.d[d0 + k];
-                    for t in 0..mid {
-                        self.scaled[k * mid + t] = ld[k * dh + dw + start + t] * dk;
-                    }
-                }
-                // work (bot × mid) = Ld_bot (bot × dw) · scaledᵀ (dw × mid)
                 let lbot = faer::MatRef::from_column_major_slice_with_stride(
                     &ld[dw + start..],
                     bot,
                     dw,
                     dh,
                 );
-                let sc = faer::MatRef::from_column_major_slice(&self.scaled[..mid * dw], mid, dw);
-                let wk = faer::MatMut::from_column_major_slice_mut(
-                    &mut self.work[..bot * mid],
-                    bot,
-                    mid,
-                );
-                faer::linalg::matmul::matmul(
-                    wk,
-                    Accum::Replace,
-                    lbot,
-                    sc.transpose(),
-                    c64::new(1.0, 0.0),
-                    Par::Seq,
-                );
+                let ddw = &self.d[d0..d1];
+                outer(lbot, ddw, mid, &mut self.scaled, &mut self.work);
                 for t in 0..mid {
                     let col = dpat[start + t] - s0;
                     let dst = &mut ls[col * h..(col + 1) * h];
@@ -1734,26 +1751,58 @@ impl<'a> NumLdlt<'a> {
                     }
                 }
             }
-            // dense L D Lᵀ of the diagonal block, and the rows below
-            for k in 0..w {
-                let dk = ls[k * h + k];
-                if !(dk.norm() > 0.0) || !dk.re.is_finite() || !dk.im.is_finite() {
-                    return false;
+            // dense L D Lᵀ of the diagonal block, and the rows below, by blocks of `PANEL`
+            // columns: each column within its block by rank-1 updates, the columns after the
+            // block by one product
+            for k0 in (0..w).step_by(PANEL) {
+                let k1 = (k0 + PANEL).min(w);
+                for k in k0..k1 {
+                    let dk = ls[k * h + k];
+                    // (a zero pivot: `dk.norm() > 0.0` fails, without its `hypot`)
+                    if (dk.re == 0.0 && dk.im == 0.0) || !dk.re.is_finite() || !dk.im.is_finite() {
+                        return false;
+                    }
+                    self.d[s0 + k] = dk;
+                    let inv = c64::new(1.0, 0.0) / dk;
+                    ls[k * h + k] = c64::new(1.0, 0.0);
+                    for x in &mut ls[k * h + k + 1..(k + 1) * h] {
+                        *x *= inv;
+                    }
+                    // update of the block's columns k+1..k1, rows j..h
+                    let (left, right) = ls.split_at_mut((k + 1) * h);
+                    let lk = &left[k * h..];
+                    for j in k + 1..k1 {
+                        let f = lk[j] * dk;
+                        let col = &mut right[(j - k - 1) * h..(j - k) * h];
+                        for i in j..h {
+                            col[i] -= lk[i] * f;
+                        }
+                    }
                 }
-                self.d[s0 + k] = dk;
-                let inv = c64::new(1.0, 0.0) / dk;
-                ls[k * h + k] = c64::new(1.0, 0.0);
-                for x in &mut ls[k * h + k + 1..(k + 1) * h] {
-                    *x *= inv;
+                if k1 == w {
+                    break;
                 }
-                // trailing update of columns k+1..w, rows j..h
-                let (left, right) = ls.split_at_mut((k + 1) * h);
-                let lk = &left[k * h..];
-                for j in k + 1..w {
-                    let f = lk[j] * dk;
-                    let col = &mut right[(j - k - 1) * h..(j - k) * h];
-                    for i in j..h {
-                        col[i] -= lk[i] * f;
+                // update of columns k1..w, rows j..h, by the block's columns
+                let (left, right) = ls.split_at_mut(k1 * h);
+                let lb = faer::MatRef::from_column_major_slice_with_stride(
+                    &left[k0 * h + k1..],
+                    h - k1,
+                    k1 - k0,
+                    h,
+                );
+                let (m, bot) = (w - k1, h - k1);
+                outer(
+                    lb,
+                    &self.d[s0 + k0..s0 + k1],
+                    m,
+                    &mut self.scaled,
+                    &mut self.work,
+                );
+                for t in 0..m {
+                    let col = &mut right[t * h + k1..(t + 1) * h];
+                    let src = &self.work[t * bot..(t + 1) * bot];
+                    for (x, &u) in col.iter_mut().zip(src).skip(t) {
+                        *x -= u;
                     }
                 }
             }
@@ -1813,8 +1862,10 @@ impl<'a> NumLdlt<'a> {
 }
 
 /// Solves `A x = e_a` for dynamic stiffnesses on one pattern: `L D Lᵀ` without pivoting, one step
-/// of iterative refinement, and a check of the backward error; the LU with partial pivoting when
-/// that check fails (a tiny pivot).
+/// of iterative refinement and up to two more until the backward error passes its check; the LU
+/// with partial pivoting when it never does (a tiny pivot). The two more steps took the membrane
+/// of the analysis bench's `refined` case from 19 and 41 LU solves (each about 13 ms) to 6 and
+/// 18 in its two threads' 2,000 solves each.
 struct DynamicSolver<'a> {
     pat: &'a Pattern,
     num: NumLdlt<'a>,
@@ -1849,12 +1900,19 @@ impl<'a> DynamicSolver<'a> {
         if ok {
             self.x.copy_from_slice(b);
             self.num.solve(&mut self.x, &mut self.y);
-            residual(pat, vals, b, &self.x, &mut self.r);
-            self.num.solve(&mut self.r, &mut self.y);
-            for (xi, ri) in self.x.iter_mut().zip(&self.r) {
-                *xi += *ri;
+            // iterative refinement: one step, and up to two more where the backward error is
+            // still above 1e-13 (each far cheaper than the LU)
+            for _ in 0..3 {
+                residual(pat, vals, b, &self.x, &mut self.r);
+                self.num.solve(&mut self.r, &mut self.y);
+                for (xi, ri) in self.x.iter_mut().zip(&self.r) {
+                    *xi += *ri;
+                }
+                ok = backward_error(pat, vals, b, &self.x, &mut self.r) <= 1e-13;
+                if ok {
+                    break;
+                }
             }
-            ok = backward_error(pat, vals, b, &self.x, &mut self.r) <= 1e-13;
         }
         if !ok {
             self.fallbacks += 1;
@@ -1868,6 +1926,18 @@ impl<'a> DynamicSolver<'a> {
             }
         }
         Some(&self.x)
+    }
+}
+
+/// `|z|` as `sqrt(re² + im²)`: within an ulp or two of `z.norm()`, libm's `hypot`, which took a
+/// seventh of the refined method's time (docs/BENCHMARKS.md, "Analysis"); `hypot` itself where
+/// the squares overflow or fall below the normal numbers (zero, NaN and infinities included).
+fn modulus(z: c64) -> f64 {
+    let s = z.re * z.re + z.im * z.im;
+    if s.is_finite() && s >= f64::MIN_POSITIVE {
+        s.sqrt()
+    } else {
+        z.norm()
     }
 }
 
@@ -1890,9 +1960,9 @@ fn backward_error(pat: &Pattern, vals: &[c64], b: &[c64], x: &[c64], r: &mut [c6
     let cp = pat.col_ptr();
     // A is symmetric: its largest absolute column sum is its largest row sum
     let anorm = (0..pat.n)
-        .map(|c| (cp[c]..cp[c + 1]).map(|p| vals[p].norm()).sum::<f64>())
+        .map(|c| (cp[c]..cp[c + 1]).map(|p| modulus(vals[p])).sum::<f64>())
         .fold(0.0, f64::max);
-    let inf = |v: &[c64]| v.iter().fold(0.0f64, |m, v| m.max(v.norm()));
+    let inf = |v: &[c64]| v.iter().fold(0.0f64, |m, v| m.max(modulus(*v)));
     let e = inf(r) / (anorm * inf(x) + inf(b));
     if e.is_finite() {
         e
@@ -1906,7 +1976,10 @@ mod tests {
     use super::*;
 
     fn two_masses() -> LinearSystem {
-        let text = "sol g\nmas a M=1\nmas b M=1\nref ga g a K=1\nref gb g b K=1\nref ab a b K=1\n";
+        load("sol g\nmas a M=1\nmas b M=1\nref ga g a K=1\nref gb g b K=1\nref ab a b K=1\n")
+    }
+
+    fn load(text: &str) -> LinearSystem {
         let model = match cordis_model::load_str(
             "t.cordis".as_ref(),
             text,
@@ -1919,6 +1992,82 @@ mod tests {
             Ok(s) => s,
             Err(e) => panic!("{e}"),
         }
+    }
+
+    #[test]
+    fn supernodes_wider_than_a_panel_solve_as_the_lu_does() {
+        // a membrane with dampers to the ground: its top separators make supernodes of more
+        // than `PANEL` columns, which `NumLdlt::factor` updates by products
+        let sys = load(
+            "membrane mem rows=24 cols=24 M=1 K=0.1 Z=1e-4 border=fixed\n\
+             sol g\nfro d1 g mem[3,5] Z=5e-3\nfro d2 g mem[12,12] Z=2e-3\n",
+        );
+        let pat = Pattern::new(&sys).expect("pattern");
+        let ldlt = SymLdlt::new(&pat).expect("ldlt");
+        let widest = (0..ldlt.begin.len() - 1)
+            .map(|s| ldlt.begin[s + 1] - ldlt.begin[s])
+            .max()
+            .unwrap_or(0);
+        assert!(widest > 2 * PANEL, "widest supernode {widest}");
+        let lu = symbolic_lu(&pat).expect("lu");
+        let mut solver = DynamicSolver::new(&pat, &ldlt, &lu);
+        let mut exact = ComplexLu::new(&pat, &lu).expect("lu");
+        let mut rng = Lcg(7);
+        let mut vals = vec![c64::new(0.0, 0.0); pat.k.len()];
+        // near a pole and far from one
+        for w in [c64::new(-2e-3, 0.05), c64::new(-0.5, 0.8)] {
+            pat.dynamic(w, &mut vals);
+            let b: Vec<c64> = (0..pat.n)
+                .map(|_| c64::new(rng.next(), rng.next()))
+                .collect();
+            let x = solver.solve(&vals, &b).expect("regular").to_vec();
+            let mut y = b.clone();
+            assert!(exact.solve_values(&vals, &mut y));
+            let peak = y.iter().fold(0.0f64, |m, v| m.max(v.norm()));
+            let far = x
+                .iter()
+                .zip(&y)
+                .fold(0.0f64, |m, (a, b)| m.max((*a - *b).norm()));
+            assert!(far <= 1e-10 * peak, "w {w}: {far:e} of {peak:e}");
+            let mut r = vec![c64::new(0.0, 0.0); pat.n];
+            assert!(backward_error(&pat, &vals, &b, &x, &mut r) <= 1e-13);
+        }
+        assert_eq!(solver.fallbacks, 0);
+    }
+
+    #[test]
+    fn modulus_is_hypot_to_an_ulp_or_two() {
+        let cases = [
+            c64::new(3.0, 4.0),
+            c64::new(-1e-3, 2.5e-7),
+            c64::new(1e200, 1e200),
+            c64::new(1e-170, -3e-171),
+            c64::new(0.0, -0.0),
+            c64::new(f64::INFINITY, 1.0),
+        ];
+        for z in cases {
+            let (m, h) = (modulus(z), z.norm());
+            assert!(
+                m == h || ((m - h) / h).abs() <= 4.0 * f64::EPSILON,
+                "{z}: {m:e} against {h:e}"
+            );
+        }
+        assert!(modulus(c64::new(f64::NAN, 1.0)).is_nan());
+    }
+
+    #[test]
+    fn clean_upper_keeps_every_value() {
+        // a product large enough for faer's `gemm` kernels first, then values held across
+        let m = Mat::<f64>::from_fn(64, 64, |i, j| (i + 2 * j) as f64 * 0.25);
+        let p = &m * &m;
+        let held: Vec<f64> = (0..64).map(|i| p[(i, 3)]).collect();
+        let sum: f64 = held.iter().sum();
+        crate::clean_upper();
+        assert_eq!(sum.to_bits(), held.iter().sum::<f64>().to_bits());
+        let direct: f64 = (0..64)
+            .map(|k| (5 + 2 * k) as f64 * 0.25 * (k + 6) as f64 * 0.25)
+            .sum();
+        assert_eq!(p[(5, 3)], direct);
     }
 
     #[test]

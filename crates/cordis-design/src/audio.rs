@@ -568,6 +568,7 @@ fn esprit(y: &[c64]) -> Result<Vec<c64>, DesignError> {
     let ev = phi.eigenvalues().map_err(|e| {
         DesignError::Numerical(format!("the eigenvalues of a band did not converge: {e:?}"))
     })?;
+    cordis_analysis::clean_upper();
     Ok(ev.into_iter().map(|z| c64::new(z.re, z.im)).collect())
 }
 
@@ -599,6 +600,7 @@ fn right_singular(h: &Mat<c64>) -> Result<(Vec<f64>, Mat<c64>), faer::linalg::sv
         MemStack::new(&mut buf),
         Default::default(),
     )?;
+    cordis_analysis::clean_upper();
     let s = s.as_ref();
     Ok(((0..size).map(|i| s[i].re).collect(), v))
 }
@@ -681,6 +683,7 @@ fn amplitudes(x: &[f64], poles: &[c64]) -> Result<Vec<c64>, DesignError> {
     let evd = ge
         .self_adjoint_eigen(faer::Side::Lower)
         .map_err(|e| DesignError::Numerical(format!("the amplitude solve failed: {e:?}")))?;
+    cordis_analysis::clean_upper();
     let lam: Vec<f64> = (0..dim).map(|i| evd.S()[i]).collect();
     let big = lam.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
     let u = evd.U();

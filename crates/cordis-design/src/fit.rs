@@ -1297,6 +1297,7 @@ fn lstsq_seq(mut a: Mat<f64>, b: &[f64]) -> Vec<f64> {
         faer::Par::Seq,
         stack,
     );
+    cordis_analysis::clean_upper();
     (0..cols).map(|k| rhs[(k, 0)]).collect()
 }
 
@@ -1323,6 +1324,7 @@ fn sym_eigen_seq(a: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>), faer::linalg::evd
         MemStack::new(&mut buf),
         Default::default(),
     )?;
+    cordis_analysis::clean_upper();
     let s = s.as_ref();
     Ok(((0..n).map(|i| s[i]).collect(), u))
 }
