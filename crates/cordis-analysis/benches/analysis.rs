@@ -142,7 +142,11 @@ fn method(m: &Method) -> String {
         Method::Undamped => "undamped".into(),
         Method::Decoupled => "decoupled".into(),
         Method::StateSpace { coupling } => format!("state space (coupling {coupling:.2e})"),
-        Method::Refined { factorisations, .. } => format!("refined ({factorisations} LDLᵀ)"),
+        Method::Refined {
+            factorisations,
+            lu_solves,
+            ..
+        } => format!("refined ({factorisations} LDLᵀ, {lu_solves} LU)"),
     }
 }
 
@@ -229,8 +233,12 @@ fn main() {
                 SparseMethod::Rayleigh { alpha, beta } => {
                     format!("Rayleigh (α = {alpha:.1e}, β = {beta:.1e})")
                 }
-                SparseMethod::Refined { factorisations, .. } => {
-                    format!("refined ({factorisations} complex LDLᵀ)")
+                SparseMethod::Refined {
+                    factorisations,
+                    lu_solves,
+                    ..
+                } => {
+                    format!("refined ({factorisations} complex LDLᵀ, {lu_solves} LU)")
                 }
             };
             println!(

@@ -73,6 +73,9 @@ pub enum Method {
         coupling: f64,
         /// Sparse complex factorisations used.
         factorisations: usize,
+        /// Of their solves, those redone by the sparse LU with partial pivoting (a tiny pivot in
+        /// the `L D Lᵀ` without pivoting; each costs several factorisations).
+        lu_solves: usize,
         /// Largest relative residual `‖T(z) v‖ / (‖T‖ ‖v‖)` of the poles.
         max_residual: f64,
     },
@@ -278,6 +281,7 @@ impl ModalAnalysis {
                         let method = Method::Refined {
                             coupling,
                             factorisations: p.factorisations,
+                            lu_solves: p.lu_solves,
                             max_residual: p.max_residual,
                         };
                         return Ok(Some(from_poles(

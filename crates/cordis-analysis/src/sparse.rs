@@ -57,6 +57,9 @@ pub enum SparseMethod {
         coupling: f64,
         /// Sparse complex factorisations used by the refinement.
         factorisations: usize,
+        /// Of their solves, those redone by the sparse LU (a tiny pivot; see
+        /// [`receptance_sparse`]).
+        lu_solves: usize,
     },
 }
 
@@ -1030,6 +1033,7 @@ fn refined(sys: &LinearSystem, pat: &Pattern, count: usize) -> Result<LowestMode
         method: SparseMethod::Refined {
             coupling,
             factorisations: refiner.factorisations,
+            lu_solves: refiner.solver.fallbacks,
         },
         max_residual: max_res,
         max_pole_residual: max_pole_res,
@@ -1046,6 +1050,8 @@ pub(crate) struct AllPoles {
     pub poles: Vec<(c64, Vec<c64>)>,
     /// Sparse complex factorisations used.
     pub factorisations: usize,
+    /// Of their solves, those redone by the sparse LU.
+    pub lu_solves: usize,
     /// Largest relative residual `‖T(z) v‖ / (‖T‖ ‖v‖)`.
     pub max_residual: f64,
 }
@@ -1097,7 +1103,8 @@ pub(crate) fn all_poles(
         .min(starts.len().div_ceil(16))
         .max(1);
     let chunk = starts.len().div_ceil(threads).max(1);
-    type Refined = (Vec<(c64, Vec<c64>, f64)>, usize);
+    /// (the poles, the factorisations and the solves redone by the LU)
+    type Refined = (Vec<(c64, Vec<c64>, f64)>, usize, usize);
     let work = |part: &[PoleStart]| -> Refined {
         // (after the dense eigensolver on this thread, or none on a new one)
         crate::clean_upper();
@@ -1114,7 +1121,7 @@ pub(crate) fn all_poles(
                 (w, v, res)
             })
             .collect();
-        (out, refiner.factorisations)
+        (out, refiner.factorisations, refiner.solver.fallbacks)
     };
     let parts: Vec<Refined> = if threads == 1 {
         vec![work(&starts)]
@@ -1126,11 +1133,12 @@ pub(crate) fn all_poles(
                 .collect();
             handles
                 .into_iter()
-                .map(|h| h.join().unwrap_or_else(|_| (Vec::new(), 0)))
+                .map(|h| h.join().unwrap_or_else(|_| (Vec::new(), 0, 0)))
                 .collect()
         })
     };
     let factorisations = parts.iter().map(|p| p.1).sum();
+    let lu_solves = parts.iter().map(|p| p.2).sum();
     let refined: Vec<(c64, Vec<c64>, f64)> = parts.into_iter().flat_map(|p| p.0).collect();
     if refined.len() != starts.len() {
         return Ok(None); // a worker panicked
@@ -1208,6 +1216,7 @@ pub(crate) fn all_poles(
     Ok(Some(AllPoles {
         poles,
         factorisations,
+        lu_solves,
         max_residual,
     }))
 }
@@ -1864,8 +1873,8 @@ impl<'a> NumLdlt<'a> {
 /// Solves `A x = e_a` for dynamic stiffnesses on one pattern: `L D Lᵀ` without pivoting, one step
 /// of iterative refinement and up to two more until the backward error passes its check; the LU
 /// with partial pivoting when it never does (a tiny pivot). The two more steps took the membrane
-/// of the analysis bench's `refined` case from 19 and 41 LU solves (each about 13 ms) to 6 and
-/// 18 in its two threads' 2,000 solves each.
+/// of the analysis bench's `refined` case from 60 LU solves (each about 13 ms) to 26 of its 4,005
+/// (the bench prints them: docs/BENCHMARKS.md, "Analysis").
 struct DynamicSolver<'a> {
     pat: &'a Pattern,
     num: NumLdlt<'a>,

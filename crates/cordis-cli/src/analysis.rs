@@ -109,7 +109,7 @@ fn method_text(m: &Method) -> String {
         Method::Undamped => "undamped: K phi = lambda M phi, f = (Fs/pi) asin(sqrt(lambda)/2)".into(),
         Method::Decoupled => "damped, decoupled: the damping is diagonal in the undamped modes; each mode's poles in closed form".into(),
         Method::StateSpace { coupling } => format!("damped, state space: eigenvalues of A_d (the damping couples the undamped modes: largest off-diagonal {coupling:.2e} of the largest entry)"),
-        Method::Refined { coupling, factorisations, max_residual } => format!("damped, refined: each pole refined on the full quadratic problem from its mode's own damping ({factorisations} sparse factorisations, largest residual {max_residual:.1e}; the damping couples the undamped modes: largest off-diagonal {coupling:.2e} of the largest entry)"),
+        Method::Refined { coupling, factorisations, lu_solves, max_residual } => format!("damped, refined: each pole refined on the full quadratic problem from its mode's own damping ({factorisations} sparse factorisations, {lu_solves} solves redone by the LU, largest residual {max_residual:.1e}; the damping couples the undamped modes: largest off-diagonal {coupling:.2e} of the largest entry)"),
     }
 }
 
