@@ -1660,6 +1660,7 @@ const PANEL: usize = 16;
 /// stand for. `scaled` and `work` must hold `mid × nb` and `bot × mid` numbers.
 fn outer(lb: MatRef<'_, c64>, d: &[c64], mid: usize, scaled: &mut [c64], work: &mut [c64]) {
     let (bot, nb) = (lb.nrows(), lb.ncols());
+    debug_assert!(d.len() == nb && mid <= bot);
     // scaled = (lb[..mid] D) as (mid × nb), column-major
     for (k, &dk) in d.iter().enumerate() {
         for t in 0..mid {
