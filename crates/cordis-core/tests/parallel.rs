@@ -210,7 +210,7 @@ fn random_networks_match_on_any_thread_count_and_block_size() {
 }
 
 /// The thread count changed between blocks, as `cordis render` does when it times both: the
-/// pull step (springs, and LNL links whose forces the AVX2 step stores, two barriers a step) and
+/// pull step (springs, and LNL links whose forces it stores, two barriers a step) and
 /// the grid step (strings as the language declares them, each in pieces) give the single-thread
 /// bits.
 #[test]

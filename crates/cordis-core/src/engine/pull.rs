@@ -45,7 +45,8 @@
 //! network has ([`Terms`]: springs and dampers, with BUTs, or with LNLs, and BUTs if it has them,
 //! of one pair or of a table) chooses the sum once per step; a network with LNL curves that do not
 //! evaluate eight at a time or do not pad to one point count (a zero curve among curves that are
-//! not), or pairs of curves mixed in most rows, keeps the other steps. A pair of curves of more
+//! not), or pairs of curves mixed in most rows whose forces are not stored (below), keeps the
+//! other steps. A pair of curves of more
 //! than 16 points is evaluated as it is ([`LongCurves`], `curve.rs`'s `WideLong`): as the
 //! network's pair when it is the only one; among others, in its own runs of groups, and as one
 //! of the table's pairs ([`LONGS`], [`long_forces`]). The loads and shuffles are AVX-512 (the
@@ -53,8 +54,8 @@
 //! and rows four lanes at a time ([`avx2`]); without either the network keeps the compact or
 //! gather step.
 //!
-//! **LNL forces stored, on AVX2.** Computed from both ends, a link of curves costs two
-//! evaluations of them, most of its time for a long curve. So the AVX2 step of a network of LNL
+//! **LNL forces stored.** Computed from both ends, a link of curves costs two
+//! evaluations of them, most of its time for a long curve. So the step of a network of LNL
 //! curves ([`Pull::stored`]) evaluates each LNL link once a step, before the rows, eight links of
 //! one pair at a time from their ends' pairs ([`Pull::store_forces`]: the reference's `d = x1 -
 //! x2` and `v = v1 - v2`, and the pair's bits of `LK(d) + LZ(v)`, the reference's `f`; with
@@ -66,8 +67,10 @@
 //! thread stores the forces of its share of the links, and a barrier orders them before the rows
 //! ([`PullJob`]). No row evaluates a pair then, so the table, the parts and the runs of several
 //! pairs are not built, and networks of pairs mixed in most rows take the step too. Measured in
-//! docs/BENCHMARKS-LOG.md, fifty-seventh session: 1.2x on a random network of 3-point curves, 1.65x
-//! with 33 points; fifty-eighth: two pairs mixed link by link 1.77x. (Not yet on AVX-512.)
+//! docs/BENCHMARKS-LOG.md, fifty-seventh session, on AVX2: 1.2x on a random network of 3-point
+//! curves, 1.65x with 33 points; fifty-eighth: two pairs mixed link by link 1.77x; seventy-sixth,
+//! on AVX-512 ([`Pull::store_forces_avx512`]): 1.0x with 3 points, 1.17x with 7, 1.46x with 33,
+//! two pairs mixed 1.34x, and no network slower.
 //!
 //! CEL (few in practice) pull their terms one at a time with the same expressions; ENX read
 //! their signal; SOL never change. The pair buffers are rebuilt from the positions at the start
@@ -293,7 +296,7 @@ pub(super) struct Pull {
     cel: CelTerms,
     /// The links the outputs read: computed before each step's outputs.
     recorded: Vec<Recorded>,
-    /// When the AVX2 step evaluates each LNL link once a step ([`Pull::store_forces`]): the
+    /// When the step evaluates each LNL link once a step ([`Pull::store_forces`]): the
     /// byte offsets of the pairs of its ends 1 and 2, eight links a chunk, the links of one pair
     /// of curves after another ([`Pull::stored_runs`], each pair's last chunk padded with links
     /// from pair 0 to pair 0), link `i` of the list storing its force into `f64` number `2 nm +
@@ -315,14 +318,14 @@ impl Pull {
     /// The pull step of `k`, if it can take one: the kernel is compiled for AVX-512 or for AVX2
     /// ([`avx2`]), the network's LNL curves evaluate several at a time
     /// ([`ExactCurve::widens`], [`AnyPair::widens`]), those of at most 16 points pad to one point
-    /// count ([`ExactPair::padded`]), the pairs do not mix in most rows, and there are at least
-    /// [`PULL_MIN`] MAS.
+    /// count ([`ExactPair::padded`]), the pairs do not mix in most rows unless the forces are
+    /// stored ([`Pull::stored`]), and there are at least [`PULL_MIN`] MAS.
     pub(super) fn new(k: &Kernel) -> Option<Pull> {
         Pull::build(k, true)
     }
 
     /// [`Pull::new`], with the LNL forces stored only if `may_store` ([`Pull::stored`]): the
-    /// tests take the AVX2 step's other ways of evaluating curves (the table, runs of one pair)
+    /// tests take the step's other ways of evaluating curves (the table, runs of one pair)
     /// on networks that would store them.
     fn build(k: &Kernel, may_store: bool) -> Option<Pull> {
         let isa = match k.simd {
@@ -395,7 +398,7 @@ impl Pull {
         }
         let links: usize = per_pair.values().sum();
         let padded: usize = per_pair.values().map(|n| LANES * n.div_ceil(LANES)).sum();
-        let store = may_store && isa == Isa::Avx2 && links > 0 && padded <= 2 * links;
+        let store = may_store && links > 0 && padded <= 2 * links;
         // Several pairs evaluate as one shape: the smallest that has the most points of any,
         // each padded to it (the long pairs are evaluated as they are). Only rows that evaluate
         // pairs read the table: with the forces stored, it stays empty (but the pairs pad to
@@ -905,7 +908,7 @@ impl Pull {
         }
     }
 
-    /// Whether the AVX2 step evaluates each LNL link once a step ([`Pull::stored`]).
+    /// Whether the step evaluates each LNL link once a step ([`Pull::stored`]).
     pub(super) fn stores_forces(&self) -> bool {
         !self.stored.is_empty()
     }
@@ -935,13 +938,15 @@ impl Pull {
             let ends = &self.stored[run.clone()];
             let at = LANES * (run.start - chunks.start)..LANES * (run.end - chunks.start);
             let forces = &mut forces[at];
+            // SAFETY (both): every offset of `ends` (chunks of `stored`) is that of a pair of
+            // `pc` (above).
             #[cfg(target_arch = "x86_64")]
-            {
-                assert!(self.isa == Isa::Avx2);
-                // SAFETY: `Pull::new` made `Isa::Avx2` (asserted) from `Simd::Avx2`, which
-                // `Simd::detect` returns (and a test asks for) only when the CPU has AVX2; every
-                // offset of `ends` (chunks of `stored`) is that of a pair of `pc` (above).
-                unsafe { self.store_forces_avx2(pc, pair, ends, forces) }
+            match self.isa {
+                // SAFETY: the token exists, so the CPU has AVX-512F (see `Avx512::detect`).
+                Isa::Avx512(_) => unsafe { self.store_forces_avx512(pc, pair, ends, forces) },
+                // SAFETY: `Pull::new` made `Isa::Avx2` from `Simd::Avx2`, which `Simd::detect`
+                // returns (and a test asks for) only when the CPU has AVX2.
+                Isa::Avx2 => unsafe { self.store_forces_avx2(pc, pair, ends, forces) },
             }
             #[cfg(not(target_arch = "x86_64"))]
             {
@@ -1177,6 +1182,12 @@ impl Pull {
         out: Slots,
     ) {
         match &self.curves {
+            _ if self.stores_forces() => {
+                let stored = Stored {
+                    full_rows: self.full_rows,
+                };
+                self.groups_with(&stored, now, params, out)
+            }
             // (no `curves`, so one pair: several have the table's shape, `Pull::new`)
             None if !self.longs.is_empty() => {
                 let long = &self.longs[0];
@@ -1480,6 +1491,36 @@ trait LnlForces {
     /// # Safety
     /// The CPU has AVX-512F and the calling function is compiled with it.
     unsafe fn forces(&self, r: usize, d: __m512d, dv: __m512d) -> __m512d;
+
+    /// Whether the forces were stored before the rows ([`Stored`]): then an LNL lane's load of
+    /// its "pair" brings its link's force in the `x` position, and `forces` is not called.
+    const STORED: bool = false;
+}
+
+/// The forces of the LNL links, stored before the rows ([`Pull::stored`],
+/// [`Pull::store_forces_avx512`]), and RES, FRO, REF and BUT terms (as [`Curves`]).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+struct Stored {
+    full_rows: bool,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl LnlForces for Stored {
+    const STORED: bool = true;
+
+    unsafe fn forces(&self, _: usize, _: __m512d, _: __m512d) -> __m512d {
+        unreachable!("stored forces are read, not evaluated")
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Terms for Stored {
+    #[inline(always)]
+    unsafe fn sum<'p>(&self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d {
+        // SAFETY: the caller's promise.
+        unsafe { sum_of_one(self, self.full_rows, pull, group) }
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -1759,6 +1800,106 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I>
     }
 }
 
+impl Pull {
+    /// [`Pull::store_forces`] on AVX-512: the forces of the LNL links of `ends` (chunks of
+    /// [`Pull::stored`], links of one pair of curves, `pair`: a position in `Pull::pairs`, or
+    /// [`LONGS`]` + i` for long pair `i`) into `forces`, eight a chunk, from the pairs `pc`.
+    ///
+    /// # Safety
+    /// The CPU has AVX-512F, and every offset of `ends` is that of a pair of `pc`: a multiple of
+    /// 16 below `16 pc.len()`.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn store_forces_avx512(
+        &self,
+        pc: &[[f64; 2]],
+        pair: u32,
+        ends: &[[[u32; LANES]; 2]],
+        forces: &mut [f64],
+    ) {
+        match pair {
+            LONGS.. => {
+                // SAFETY: this function is compiled with AVX-512F; the offsets are the caller's
+                // promise.
+                unsafe {
+                    let c = LongCurves::new(&self.longs[(pair - LONGS) as usize], false);
+                    store_forces(&c, pc, ends, forces);
+                }
+            }
+            // (the offsets of `ends`: the caller's promise, the invariant of `StoreForces`)
+            _ => self.pairs[pair as usize].visit(StoreForces { pc, ends, forces }),
+        }
+    }
+}
+
+/// The forces of the LNL links of `ends` (eight a chunk: the byte offsets in `pc` of the pairs
+/// of ends 1 and 2) by `c`, into `forces`, eight a chunk: the reference's `d = x1 - x2` and `v =
+/// v1 - v2` (each `v` is `x(n) - x(n-1)`, as the reference's operands, see the module
+/// documentation), and `c`'s bits of `LK(d) + LZ(v)`, the reference's force.
+///
+/// # Safety
+/// The CPU has AVX-512F, and every offset of `ends` is that of a pair of `pc`, a multiple of 16
+/// below `16 pc.len()` (the reads are not checked, as the AVX2 pass's are not).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn store_forces<C: LnlForces>(
+    c: &C,
+    pc: &[[f64; 2]],
+    ends: &[[[u32; LANES]; 2]],
+    forces: &mut [f64],
+) {
+    assert!(forces.len() == LANES * ends.len());
+    let base = pc.as_ptr().cast::<u8>();
+    let xs = _mm512_set_epi64(14, 12, 10, 8, 6, 4, 2, 0);
+    let vs = _mm512_set_epi64(15, 13, 11, 9, 7, 5, 3, 1);
+    for ([a, b], out) in ends.iter().zip(forces.chunks_exact_mut(LANES)) {
+        // SAFETY: every offset is that of a pair of `pc` (the caller's promise), the CPU has
+        // AVX-512F (this function is compiled with it), and `out` has eight `f64`.
+        unsafe {
+            let ((xa, va), (xb, vb)) = (pairs(base, a, xs, vs), pairs(base, b, xs, vs));
+            let (d, dv) = (_mm512_sub_pd(xa, xb), _mm512_sub_pd(va, vb));
+            _mm512_storeu_pd(out.as_mut_ptr(), c.forces(0, d, dv));
+        }
+    }
+}
+
+/// [`store_forces`] with a pair of at most 16 points, at its point counts.
+///
+/// Invariant: every offset of `ends` is that of a pair of `pc` (its one maker,
+/// `Pull::store_forces_avx512`, has the promise from its caller).
+#[cfg(target_arch = "x86_64")]
+struct StoreForces<'a> {
+    pc: &'a [[f64; 2]],
+    ends: &'a [[[u32; LANES]; 2]],
+    forces: &'a mut [f64],
+}
+
+#[cfg(target_arch = "x86_64")]
+impl PairFn for StoreForces<'_> {
+    type Out = ();
+
+    fn call<const A: usize, const B: usize>(self, k: &ExactCurve<A>, z: &ExactCurve<B>) {
+        // SAFETY: `Pull::store_forces` calls `store_forces_avx512` only with `Isa::Avx512`,
+        // which exists only with the token, the CPU's proof of AVX-512F; the offsets: the
+        // type's invariant.
+        unsafe { self.avx512(k, z) }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl StoreForces<'_> {
+    /// [`PairFn::call`], compiled with AVX-512F (the curves' vectors built in registers, as
+    /// [`WithCurves::avx512`] builds them).
+    ///
+    /// # Safety
+    /// The CPU has AVX-512F, and the offsets keep the type's invariant.
+    #[target_feature(enable = "avx512f")]
+    unsafe fn avx512<const A: usize, const B: usize>(self, k: &ExactCurve<A>, z: &ExactCurve<B>) {
+        // SAFETY: the caller's promise.
+        unsafe { store_forces(&Curves::new(k, z, false), self.pc, self.ends, self.forces) }
+    }
+}
+
 /// [`sum_lnl`] of the rows `rows` of `pull`, with the forces of one pair of curves `c` (a
 /// [`Terms::sum`]).
 ///
@@ -1766,8 +1907,8 @@ impl<'p, I: Iterator<Item = &'p [[f64; LANES]; 2]>, P: Fn(Range<usize>) -> I>
 /// As [`Terms::sum`].
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn sum_of_one<'p>(
-    c: &impl LnlForces,
+unsafe fn sum_of_one<'p, C: LnlForces>(
+    c: &C,
     full_rows: bool,
     pull: &Pull,
     group: Group8<impl Params<'p>>,
@@ -1810,10 +1951,10 @@ unsafe fn sum_of_one<'p>(
 /// As [`sum`].
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn sum_lnl<'p>(
+unsafe fn sum_lnl<'p, C: LnlForces>(
     rows: &[Row],
     full_rows: bool,
-    c: &impl LnlForces,
+    c: &C,
     ts: &[[f64; LANES]],
     group: Group8<impl Params<'p>>,
 ) -> __m512d {
@@ -1840,7 +1981,10 @@ unsafe fn sum_lnl<'p>(
         // (the row's LNL lanes: those of `row.b` but its BUT lanes, which have a spring; a row
         // without one skips the curves)
         let lnls = if but { row.b & !row.k } else { row.b };
-        let lnl = if lnls != 0 {
+        let lnl = if C::STORED {
+            // (the link's force, from the lane's load: see `LnlForces::STORED`)
+            flip(row.flip, xj)
+        } else if lnls != 0 {
             // SAFETY: the CPU has AVX-512F, and this function is compiled with it.
             flip(row.flip, unsafe {
                 c.forces(r, flip(row.flip, d), flip(row.flip, dv))

@@ -704,8 +704,14 @@ fn the_avx2_pull_step_gives_the_other_steps_bits() {
 /// `process_observed` (the other steps), in its outputs and its positions.
 #[cfg(target_arch = "x86_64")]
 fn the_avx2_pull_step_gives_the_scalar_bits(net: &Network, what: &str) {
+    the_pull_step_of_gives_the_scalar_bits(net, Simd::Avx2, what);
+}
+
+/// [`the_avx2_pull_step_gives_the_scalar_bits`] with the pull step compiled for `simd`.
+#[cfg(target_arch = "x86_64")]
+fn the_pull_step_of_gives_the_scalar_bits(net: &Network, simd: Simd, what: &str) {
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-    let mut pulled = Engine::new_for(net, Simd::Avx2);
+    let mut pulled = Engine::new_for(net, simd);
     assert!(pulled.k.pull.is_some(), "{what}");
     let mut other = pulled.clone();
     let mut threaded = pulled.clone();
@@ -932,9 +938,9 @@ fn the_avx2_pull_step_takes_but_and_lnl_networks() {
         assert!(pull.curve_pairs() + pull.long_pairs() > 1, "{what}");
         assert!(pull.stores_forces(), "{what}");
     }
-    // (pairs mixed in every row, which the AVX-512 step refuses: taken when the forces are
-    // stored, four pairs of many links each; refused when each link has a pair of its own,
-    // whose chunks would be mostly padding)
+    // (pairs mixed in every row, which a step that does not store the forces refuses: taken
+    // when they are stored, four pairs of many links each; refused when each link has a pair
+    // of its own, whose chunks would be mostly padding)
     let mixed = |seed: u64, n: usize, pairs: usize| {
         let mut net = lnl_springs(seed, n, 1);
         for (i, link) in net.links.iter_mut().enumerate() {
@@ -993,9 +999,102 @@ fn the_avx2_pull_step_takes_but_and_lnl_networks() {
     }
 }
 
+/// On an AVX-512 CPU, LNL networks store their links' forces before the rows, as the AVX2 step
+/// does (`Pull::store_forces_avx512`), and give the scalar build's bits at every block, on one
+/// thread and on two: one pair of curves (of 4 and 3 points, with a jump, drawn, finely drawn,
+/// with a zero viscous curve, sticking springs), on every link or every third among REF links,
+/// with BUTs among them or not; a pair of 40 points; several pairs, short and long, by row or
+/// mixed in some rows, or four mixed in every row; long pairs alone. Twelve pairs of three links each, whose chunks would be
+/// mostly padding, do not store them, and read the table.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn the_avx512_pull_step_stores_the_lnl_forces() {
+    let Some(cpu) = Avx512::detect() else {
+        return;
+    };
+    let simd = Simd::Avx512(cpu);
+    let stores = |net: &Network, what: &str| {
+        let pull = Engine::new_for(net, simd).k.pull;
+        assert!(pull.expect(what).stores_forces(), "{what}");
+        the_pull_step_of_gives_the_scalar_bits(net, simd, what);
+    };
+    let [four, _, _, jump] = lnl_pairs();
+    let [drawn, _, fine] = drawn_pairs();
+    let zero = Interaction::Lnl {
+        lk: Curve::new(&[(-0.01, -6e-4), (0.01, 5e-4)]).unwrap(),
+        lz: Curve::zero(),
+    };
+    let pairs = [
+        four,
+        jump,
+        drawn,
+        fine,
+        zero,
+        sticking_pair(),
+        sampled_pair(),
+    ];
+    for (p, pair) in pairs.iter().enumerate() {
+        for (seed, n, inertia, every) in [(1, 16, 0, 1), (2, 43, 1, 2), (4, 500, 3, 2)] {
+            // (the sticking springs' curve has a jump first: taken from `JUMPS_PULL_MIN` MAS)
+            let n = if p == 5 { n.max(JUMPS_PULL_MIN) } else { n };
+            let what = format!("pair {p}, network {seed}, every {every}");
+            let net = lnl_ref_springs(seed + 10 * p as u64, n, inertia, pair, every);
+            stores(&net, &what);
+            let mut but = net.clone();
+            for (i, link) in but.links.iter_mut().enumerate() {
+                if !matches!(link.law, Interaction::Lnl { .. }) && i % 5 == 0 {
+                    link.law = but_of(i);
+                }
+            }
+            if but
+                .links
+                .iter()
+                .any(|l| matches!(l.law, Interaction::But { .. }))
+            {
+                stores(&but, &format!("{what}, with BUTs"));
+            }
+        }
+    }
+    // (`lnl_springs`'s mixes 0 to 13: one pair, several by row and mixed in some rows, long
+    // pairs among others and alone, sticking springs)
+    for mix in 0..=13 {
+        stores(
+            &lnl_springs(70 + u64::from(mix), 500, mix),
+            &format!("mix {mix}"),
+        );
+    }
+    for (seed, n) in [(81, 40), (82, 500)] {
+        stores(
+            &but_lnl_springs(seed, n, true),
+            &format!("pairs {seed} and a BUT"),
+        );
+    }
+    let mut every_row = lnl_springs(83, 500, 1);
+    for (i, link) in every_row.links.iter_mut().enumerate() {
+        let slope = 0.01 * (1 + i % 4) as f64;
+        link.law = Interaction::Lnl {
+            lk: Curve::new(&[(-1.0, -slope), (0.0, 0.0), (1.0, 2.0 * slope)]).unwrap(),
+            lz: Curve::new(&[(-1.0, -1e-3 * slope), (1.0, 1e-3 * slope)]).unwrap(),
+        };
+    }
+    stores(&every_row, "four pairs in every row");
+    let mut few = ref_springs(84, 500, 1, false);
+    for (j, i) in (5..few.links.len()).step_by(37).take(36).enumerate() {
+        let slope = 0.01 * (1 + j / 3) as f64;
+        few.links[i].law = Interaction::Lnl {
+            lk: Curve::new(&[(-1.0, -slope), (0.0, 0.0), (1.0, 2.0 * slope)]).unwrap(),
+            lz: Curve::new(&[(-1.0, -1e-3), (1.0, 1e-3)]).unwrap(),
+        };
+    }
+    let pull = Engine::new_for(&few, simd).k.pull.expect("a pull step");
+    assert_eq!(pull.curve_pairs(), 12);
+    assert!(!pull.stores_forces());
+    the_pull_step_of_gives_the_scalar_bits(&few, simd, "twelve pairs of three links each");
+}
+
 /// Networks of springs and dampers, with BUTs or LNLs among them, take the pull step on an
 /// AVX-512 CPU (not with curves that do not evaluate eight at a time or do not pad to one
-/// point count, or pairs of curves mixed in most rows, which an AVX2 CPU takes), and it gives
+/// point count), and it gives
 /// the bits of the compact or gather step at every step: positions, outputs, and the
 /// link forces `link_force` reads after each block, whether `process` and `process_observed`
 /// take turns on one engine or not. The BUTs come into and out of contact, with the MAS and
@@ -1008,8 +1107,8 @@ fn the_pull_step_gives_the_other_steps_bits() {
     // (a CPU with AVX2 alone takes the pull step too, for the networks of `two`)
     let pulls = Simd::detect() != Simd::None;
     // refused: a zero curve with curves that are not, a curve with a jump first in fewer
-    // than `JUMPS_PULL_MIN` MAS, pairs of curves mixed in every row; taken: two pairs of
-    // curves of other point counts, and a curve with a jump first in as many MAS
+    // than `JUMPS_PULL_MIN` MAS; taken: two pairs of curves of other point counts, pairs of
+    // curves mixed in every row, and a curve with a jump first in as many MAS
     let mut two = lnl_springs(1, 40, 0);
     two.links[5].law = Interaction::Lnl {
         lk: Curve::new(&[(-1.0, -0.01), (1.0, 0.01)]).unwrap(),
@@ -1047,9 +1146,11 @@ fn the_pull_step_gives_the_other_steps_bits() {
     for net in [zero, jump(JUMPS_PULL_MIN - 1)] {
         assert!(Engine::new(&net).k.pull.is_none());
     }
-    // (the AVX2 step stores the forces, and no row evaluates a pair: it takes `every_row`)
-    let stores = Simd::detect() == Simd::Avx2;
-    assert_eq!(Engine::new(&every_row).k.pull.is_some(), stores);
+    // (the step stores the forces, and no row evaluates a pair: it takes `every_row`; built
+    // not to store them, it refuses it)
+    assert_eq!(Engine::new(&every_row).k.pull.is_some(), pulls);
+    let k = Kernel::new_for(&every_row, Simd::detect());
+    assert!(pull::Pull::unstored(&k).is_none());
     assert!(Engine::new(&springs(1, 8, None)).k.pull.is_none()); // (fewer than PULL_MIN MAS)
     let mut toggled = 0;
     let mut read_laws = Vec::new();
@@ -1161,7 +1262,7 @@ fn the_pull_step_gives_the_other_steps_bits() {
         // (the rows computing the terms only some rows have the other way, every row or
         // only those that have one: a BUT network's BUTs, an LNL network's springs)
         let mut other_way = pulled.clone();
-        // (which rows evaluate one pair, which several: where the AVX2 step stores the LNL
+        // (which rows evaluate one pair, which several: where the step stores the LNL
         // forces, none, so those of the step built not to store them)
         let rows_of_pairs = |pull: &pull::Pull| {
             if pull.stores_forces() {
@@ -1520,7 +1621,8 @@ fn the_pull_step_stores_mas_of_one_kind_of_terms_together() {
         };
         let mixed_rows = |mut k: Kernel| {
             k.simd = Simd::Avx512(cpu);
-            let p = pull::Pull::new(&k).expect("a pull step");
+            // (built not to store the LNL forces, so that its rows evaluate their pairs)
+            let p = pull::Pull::unstored(&k).expect("a pull step");
             if pairs {
                 p.rows_of_pairs().1
             } else {
@@ -1710,40 +1812,24 @@ fn lnl_halves(seed: u64, n: usize, long: bool) -> Network {
 /// are in runs of one pair and some are not, and the outputs, positions and link forces
 /// have the bits of the same engine reading every pair from the table, of the compact step,
 /// and of three threads, at every block. So too when one half's pair has 40 points (its runs
-/// and its parts of rows evaluate it as it is, `Pull::longs`). So too, on a CPU with AVX2,
-/// the AVX2 pull step (`avx2::CurveTable4`) built not to store the LNL forces; the step it
-/// takes otherwise stores them, builds no runs, and gives the same bits.
+/// and its parts of rows evaluate it as it is, `Pull::longs`), on AVX-512 and on AVX2
+/// (`avx2::CurveTable4`), each step built not to store the LNL forces; the step each takes
+/// otherwise stores them, builds no runs, and gives the same bits.
 #[test]
 fn the_pull_step_sums_runs_of_one_pair_with_the_curves_in_registers() {
-    let mut isas = Vec::new();
-    if Avx512::detect().is_some() {
-        isas.push(false);
-    }
-    #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") {
-        isas.push(true);
-    }
-    for (avx2, (seed, n, long)) in isas
+    for (simd, (seed, n, long)) in simd_widths()
         .into_iter()
         .flat_map(|a| [(31, 500, false), (32, 1203, false), (33, 700, true)].map(|t| (a, t)))
     {
         let net = lnl_halves(seed, n, long);
-        // (on AVX2: the engine as built, which stores the forces, and one that does not)
-        let mut stored = None;
-        let mut pulled = match avx2 {
-            #[cfg(target_arch = "x86_64")]
-            true => {
-                let built = Engine::new_for(&net, Simd::Avx2);
-                let pull = built.k.pull.as_ref().expect("a pull step");
-                assert!(pull.stores_forces(), "network {seed}");
-                assert_eq!(pull.groups_of_one_pair(), (0, 0), "network {seed}");
-                stored = Some(built);
-                let mut k = Kernel::new_for(&net, Simd::Avx2);
-                k.pull = pull::Pull::unstored(&k).map(Box::new);
-                Engine::with_kernel(k)
-            }
-            _ => Engine::new(&net),
-        };
+        // (the engine as built, which stores the forces, and one that does not)
+        let mut stored = Engine::new_for(&net, simd);
+        let pull = stored.k.pull.as_ref().expect("a pull step");
+        assert!(pull.stores_forces(), "network {seed}");
+        assert_eq!(pull.groups_of_one_pair(), (0, 0), "network {seed}");
+        let mut k = Kernel::new_for(&net, simd);
+        k.pull = pull::Pull::unstored(&k).map(Box::new);
+        let mut pulled = Engine::with_kernel(k);
         let pull = pulled.k.pull.as_ref().expect("a pull step");
         let (one, table) = pull.groups_of_one_pair();
         assert_eq!(one + table, n.div_ceil(8), "network {seed}");
@@ -1787,20 +1873,12 @@ fn the_pull_step_sums_runs_of_one_pair_with_the_curves_in_registers() {
             assert!(from_table.process(block, b).is_ok());
             assert!(compact.process_observed(block, c, &mut unobserved).is_ok());
             assert!(threads.process(block, d).is_ok());
-            // (the storing engine only where there is one: on AVX2)
-            let e = stored.as_mut().map(|stored| {
-                let mut e = vec![0.0; block * ch];
-                assert!(stored.process(block, &mut e).is_ok());
-                e
-            });
-            for (j, o) in [&b[..], &c[..], &d[..]]
-                .into_iter()
-                .chain(e.as_deref())
-                .enumerate()
-            {
+            let mut e = vec![0.0; block * ch];
+            assert!(stored.process(block, &mut e).is_ok());
+            for (j, o) in [&b[..], &c[..], &d[..], &e[..]].into_iter().enumerate() {
                 assert_eq!(bits(a), bits(o), "network {seed}, block {i}, engine {j}");
             }
-            for e in [&from_table, &compact, &threads].into_iter().chain(&stored) {
+            for e in [&from_table, &compact, &threads, &stored] {
                 for m in (0..net.materials.len() as u32).map(MatId) {
                     assert_eq!(e.position(m).to_bits(), pulled.position(m).to_bits());
                 }
@@ -1814,15 +1892,14 @@ fn the_pull_step_sums_runs_of_one_pair_with_the_curves_in_registers() {
     }
 }
 
-/// The AVX2 store pass reads its chunks' pairs unchecked (`Pull::stored_within`): it steps
-/// from as many pairs as the network has MAS and SOL, and refuses fewer, whose reads the
-/// offsets would overrun.
+/// The store pass, AVX-512 and AVX2, reads its chunks' pairs unchecked (`Pull::stored_within`):
+/// it steps from as many pairs as the network has MAS and SOL, and refuses fewer, whose reads
+/// the offsets would overrun.
 #[test]
 fn the_store_pass_refuses_fewer_pairs_than_its_offsets_need() {
-    #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") {
+    for simd in simd_widths() {
         let net = lnl_halves(31, 500, false);
-        let engine = Engine::new_for(&net, Simd::Avx2);
+        let engine = Engine::new_for(&net, simd);
         let pull = engine.k.pull.as_ref().expect("a pull step");
         assert!(pull.stores_forces());
         let (nm, chunks) = (engine.k.nm, pull.stored_share(0, 1));
@@ -1843,11 +1920,11 @@ fn the_store_pass_refuses_fewer_pairs_than_its_offsets_need() {
 /// one curve (`avx2::store_alternating`: equal counts, and counts of 2 to 4, padded) and of
 /// some it evaluates as two (`avx2::Pair4`): curves with jumps inside, at the first point
 /// (the sticking spring's) and none; abscissas at the curves' points, beyond their ends,
-/// zeros of both signs and between; every link of each chunk, padding lanes included.
+/// zeros of both signs and between; every link of each chunk, padding lanes included. So does
+/// the AVX-512 store pass, which evaluates every shape as two curves.
 #[test]
 fn the_store_pass_gives_every_shape_the_reference_force() {
-    #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") {
+    for simd in simd_widths() {
         // (a curve of `n` points over ±w: a hardening spring, with a jump inside from 5
         // points, and the sticking spring's 4 points, jumps at the first and the last)
         let curve = |n: usize, w: f64| -> Curve {
@@ -1902,7 +1979,7 @@ fn the_store_pass_gives_every_shape_the_reference_force() {
             let what = format!("points {a} and {b}");
             // (300 MAS: a sticking spring takes the pull step from 256, `JUMPS_PULL_MIN`)
             let net = lnl_ref_springs(70 + s as u64, 300, 0, &pair, 1);
-            let engine = Engine::new_for(&net, Simd::Avx2);
+            let engine = Engine::new_for(&net, simd);
             let pull = (engine.k.pull.as_ref()).unwrap_or_else(|| panic!("{what}: no pull"));
             assert!(pull.stores_forces(), "{what}");
             let stored = pull.stored_chunks();
@@ -2355,7 +2432,7 @@ fn the_grid_step_takes_only_membranes_and_gives_the_gather_bits() {
         net.add_force(MatId(0), Signal::Impulse { at: 30, amp: -0.1 });
         let pair = name.to_lowercase().contains("pair");
         assert_eq!(sheets(&net), 1 + usize::from(pair), "{name}");
-        for simd in grid_widths() {
+        for simd in simd_widths() {
             let mut grid = Engine::new_for(&net, simd);
             assert!(grid.k.grid.is_some(), "{name}, {simd:?}");
             let mut gather = grid.clone();
@@ -2379,9 +2456,9 @@ fn the_grid_step_takes_only_membranes_and_gives_the_gather_bits() {
     }
 }
 
-/// The vector widths the grid step is compiled for that this CPU has (and `CORDIS_SIMD`
-/// allows), widest first: AVX-512, AVX2 (none elsewhere).
-fn grid_widths() -> Vec<Simd> {
+/// The vector widths the grid and pull steps are compiled for that this CPU has (and
+/// `CORDIS_SIMD` allows), widest first: AVX-512, AVX2 (none elsewhere).
+fn simd_widths() -> Vec<Simd> {
     #[allow(unused_mut)]
     let mut widths = Vec::new();
     #[cfg(target_arch = "x86_64")]
@@ -2405,7 +2482,7 @@ fn grid_gives_the_gather_bits(name: &str, net: &mut Network) {
     net.add_force_output(last);
     net.add_force_output(LinkId(1));
     net.add_force(MatId(0), Signal::Impulse { at: 30, amp: -0.1 });
-    for simd in grid_widths() {
+    for simd in simd_widths() {
         let mut grid = Engine::new_for(net, simd);
         assert!(grid.k.grid.is_some(), "{name}, {simd:?}");
         let mut gather = grid.clone();
