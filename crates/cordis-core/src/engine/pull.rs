@@ -1327,9 +1327,10 @@ impl Pull {
                 )
             };
             let rows = rows[0] as usize..rows[1] as usize;
-            // SAFETY: every row's offsets are those of pairs `< nm` (asserted in `new`), and `pc`
-            // has `nm` pairs (asserted in `step`); the CPU has AVX-512F, and this function is
-            // compiled with it.
+            // SAFETY: every row's offset is that of 16 bytes within a buffer of `buffer_len(nm)`
+            // pairs (asserted in `new`: a pair `< nm`, or a stored force and the 8 bytes after
+            // it), which `pc` has (asserted in `step`); the CPU has AVX-512F, and this function
+            // is compiled with it.
             let group = Group::new(rows.clone(), params(rows), base, (x, v), (xs, vs));
             let mut f = unsafe { terms.sum(self, group) };
             let inputs = &self.enf[inputs[0] as usize..inputs[1] as usize];
@@ -1444,7 +1445,8 @@ trait Terms: Copy {
     ///
     /// # Safety
     /// The CPU has AVX-512F and the calling function is compiled with it; every offset of the
-    /// rows is that of a pair within the buffer at `group.base`.
+    /// rows is that of 16 bytes within the buffer at `group.base` (a pair, or a stored force and
+    /// the 8 bytes after it).
     unsafe fn sum<'p>(&self, pull: &Pull, group: Group8<impl Params<'p>>) -> __m512d;
 }
 
@@ -2106,7 +2108,7 @@ impl<'b> Slots<'b> {
 /// (`group.perm`: see [`pairs`]).
 ///
 /// # Safety
-/// The CPU has AVX-512F, and every offset of `rows` is that of a pair within the buffer.
+/// The CPU has AVX-512F, and every offset of `rows` is that of 16 bytes within the buffer.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[inline]
@@ -2194,7 +2196,8 @@ unsafe fn sum_but<'p, const SKIP: bool>(
 /// lanes of two vectors.
 ///
 /// # Safety
-/// The CPU has AVX-512F, and `base + at[i]` is a pair of the buffer for every `i`.
+/// The CPU has AVX-512F, and the 16 bytes at `base + at[i]` are within the buffer for every
+/// `i` (a pair, or a stored force and the 8 bytes after it).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[inline]
