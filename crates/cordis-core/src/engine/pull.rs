@@ -1937,6 +1937,12 @@ unsafe fn sum_of_one<'p, C: LnlForces>(
 /// no `K` or `Z`, so the rows of a network share one row of parameters when its other links
 /// have the same (`Pull::new`).
 ///
+/// When the forces were stored before the rows ([`Stored`], `C::STORED`), an LNL lane's load
+/// brought its link's `f`, evaluated once on the reference's operands (`Pull::store_forces`),
+/// where a pair's `x` would be: the lane takes it, negated in `row.flip`, the `g` its own
+/// evaluation would give, and the curves are not evaluated in the rows. Its `d` and `dv`, made
+/// from that load, are not used: the LNL lanes have no spring, damper or BUT bit.
+///
 /// A network with BUT links too has a row of thresholds `ts` per row (else `ts` is empty). A
 /// row's BUT lanes are those of `row.b` with a spring (`row.k`: every BUT has one, no LNL has).
 /// In a row that has one, those lanes compute [`sum_but`]'s terms with the same operations: `t =
